@@ -1,0 +1,331 @@
+"""Bulk Rerun logging of one simulation run, and reading a recording back.
+
+Entity-path convention (one entity per signal, one column per component):
+
+========================== ===================================================
+``/plant/x``               plant state, columns ``x1 .. xn``
+``/observer/<name>/xhat``  estimate of observer ``<name>`` (e.g. ``sp6``)
+``/observer/<name>/r``     internal/auxiliary state of observer ``<name>``
+``/error/<name>``          estimation error ``x - xhat`` of observer ``<name>``
+``/measurement/y``         measured output (noise included)
+``/measurement/noise``     measurement noise alone
+``/input/u``               plant input
+``/run/...``               static text documents (e.g. ``/run/status``)
+========================== ===================================================
+
+All scalars sit on the timeline ``"sim_time"`` (simulated seconds, sent as
+``timedelta64[ns]``). Logging is columnar: each :class:`Series` goes to Rerun in
+exactly one ``send_columns`` call, never sample by sample (per-sample ``rr.log``
+is several hundred times slower).
+
+Notes
+-----
+* With ``RERUN=off`` in the environment Rerun disables every stream:
+  :func:`write_recording` then writes no file (an existing file at ``path`` is left
+  untouched) and only emits a :class:`RuntimeWarning`.
+* The ``.rrd`` file is complete only once the stream is closed;
+  :func:`write_recording` closes it before returning.
+* Reading back needs ``rerun-sdk[catalog]`` (``rerun.chunk.RrdReader``).
+"""
+
+from __future__ import annotations
+
+import re
+import warnings
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import rerun as rr
+import rerun.blueprint as rrb
+
+__all__ = [
+    "TIMELINE",
+    "Series",
+    "read_recording",
+    "time_series_blueprint",
+    "write_recording",
+]
+
+TIMELINE = "sim_time"
+"""Name of the Rerun timeline holding simulated time."""
+
+PALETTE: tuple[tuple[int, int, int], ...] = (
+    (31, 119, 180),
+    (255, 127, 14),
+    (44, 160, 44),
+    (214, 39, 40),
+    (148, 103, 189),
+    (140, 86, 75),
+    (227, 119, 194),
+    (127, 127, 127),
+    (188, 189, 34),
+    (23, 190, 207),
+)
+"""Fixed colour cycle (matplotlib ``tab10``): column ``k`` gets ``PALETTE[k % 10]``."""
+
+_RECORDING_ID_RE = re.compile(r"[A-Za-z0-9_-]+")
+_SCALARS_SUFFIX = ":Scalars:scalars"
+
+
+@dataclass(frozen=True)
+class Series:
+    """A multi-column scalar signal sampled on the run's time grid.
+
+    Attributes
+    ----------
+    entity : str
+        Rerun entity path, e.g. ``"/plant/x"`` or ``"/observer/sp6/xhat"``.
+    names : list of str
+        One display name per column, e.g. ``["x1", "x2"]``.
+    values : numpy.ndarray
+        Shape ``(N, len(names))``, float64, one row per time sample.
+    """
+
+    entity: str
+    names: list[str]
+    values: np.ndarray
+
+
+def _validate_recording_id(recording_id: str) -> None:
+    if not isinstance(recording_id, str) or not _RECORDING_ID_RE.fullmatch(recording_id):
+        raise ValueError(
+            f"invalid recording_id {recording_id!r}: use only letters, digits, '_' and '-'"
+        )
+
+
+def _time_column(t: np.ndarray) -> np.ndarray:
+    """Validate the time grid and convert seconds to ``timedelta64[ns]``."""
+    t = np.asarray(t, dtype=np.float64)
+    if t.ndim != 1:
+        raise ValueError(f"t must be 1-D, got shape {t.shape}")
+    if not np.all(np.isfinite(t)):
+        raise ValueError("t contains non-finite times")
+    t_ns = np.round(t * 1e9).astype(np.int64)
+    if np.any(np.diff(t_ns) <= 0):
+        raise ValueError("t must be strictly increasing at 1 ns resolution")
+    return t_ns.astype("timedelta64[ns]")
+
+
+def _checked_values(s: Series, n: int) -> np.ndarray:
+    """Return ``s.values`` as float64 after checking it is ``(n, len(s.names))``."""
+    values = np.asarray(s.values, dtype=np.float64)
+    expected = (n, len(s.names))
+    if values.shape != expected:
+        hint = ""
+        if values.ndim == 2 and values.shape[0] < n:
+            hint = " (a run that stopped early: slice t to the samples actually computed)"
+        raise ValueError(
+            f"series {s.entity!r}: values have shape {values.shape}, expected {expected} "
+            f"(len(t), len(names)){hint}"
+        )
+    return values
+
+
+def _checked_series(series: Sequence[Series], n: int) -> list[tuple[Series, np.ndarray]]:
+    seen: set[str] = set()
+    out = []
+    for s in series:
+        key = "/" + s.entity.strip("/")
+        if key in seen:
+            raise ValueError(f"series {s.entity!r}: entity logged twice")
+        seen.add(key)
+        out.append((s, _checked_values(s, n)))
+    return out
+
+
+def _send_series(rec: rr.RecordingStream, s: Series, values: np.ndarray, time: np.ndarray) -> None:
+    colors = [PALETTE[k % len(PALETTE)] for k in range(len(s.names))]
+    rec.log(s.entity, rr.SeriesLines(names=list(s.names), colors=colors), static=True)
+    rec.send_columns(
+        s.entity,
+        indexes=[rr.TimeColumn(TIMELINE, duration=time)],
+        columns=rr.Scalars.columns(scalars=values),
+    )
+
+
+def write_recording(
+    path: str | Path,
+    t: np.ndarray,
+    series: Sequence[Series],
+    *,
+    application_id: str = "hgo",
+    recording_id: str,
+    blueprint: rrb.Blueprint | None = None,
+    text: Mapping[str, str] | None = None,
+) -> Path:
+    """Write one run to an ``.rrd`` file, one ``send_columns`` call per series.
+
+    Parameters
+    ----------
+    path : str or Path
+        Output file; parent directories are created, an existing file is replaced.
+    t : numpy.ndarray
+        Time grid in simulated seconds, shape ``(N,)``, strictly increasing. For a run
+        that stopped early, pass ``t`` sliced to the computed samples.
+    series : sequence of Series
+        Signals to log; each must have values of shape ``(N, len(names))``.
+    application_id : str
+        Rerun application id.
+    recording_id : str
+        Unique id of this run, only ``[A-Za-z0-9_-]``. Two files with the same id merge
+        into one recording in the viewer.
+    blueprint : rerun.blueprint.Blueprint, optional
+        Saved as the file's default blueprint (see :func:`time_series_blueprint`).
+    text : mapping of str to str, optional
+        Entity path -> text, logged as static ``rr.TextDocument`` entries,
+        e.g. ``{"/run/status": "failed at t=3.2 s: non-finite state"}``.
+
+    Returns
+    -------
+    Path
+        ``path``. The file is complete (stream closed) on return. With ``RERUN=off`` no
+        file is written.
+
+    Raises
+    ------
+    ValueError
+        On an invalid ``recording_id``, a bad time grid, a duplicated entity, or a series
+        whose shape does not match ``(len(t), len(names))`` (the message names the entity).
+    """
+    _validate_recording_id(recording_id)
+    path = Path(path)
+    time = _time_column(t)
+    checked = _checked_series(series, len(time))
+    with rr.RecordingStream(application_id, recording_id=recording_id) as rec:
+        if not rec.is_enabled():
+            warnings.warn(
+                f"Rerun is disabled (RERUN=off?): no recording written to {path}",
+                RuntimeWarning,
+                stacklevel=2,
+            )
+            return path
+        path.parent.mkdir(parents=True, exist_ok=True)
+        rec.save(path, default_blueprint=blueprint)
+        for s, values in checked:
+            _send_series(rec, s, values, time)
+        for entity, doc in (text or {}).items():
+            rec.log(entity, rr.TextDocument(doc), static=True)
+    return path
+
+
+def _is_plain(expr: str) -> bool:
+    """True if Rerun's query language handles ``expr`` itself (``*`` only as a ``/**`` suffix)."""
+    return "*" not in expr.removesuffix("/**")
+
+
+def _glob_regex(pattern: str) -> re.Pattern[str]:
+    """``**`` matches any number of path segments, ``*`` part of one segment."""
+    parts = []
+    for seg in pattern.strip("/").split("/"):
+        if seg == "**":
+            parts.append("(?:/[^/]+)*")
+        else:
+            parts.append("/" + "[^/]*".join(re.escape(p) for p in seg.split("*")))
+    return re.compile("".join(parts))
+
+
+def _view_contents(
+    patterns: Sequence[str], entities: Sequence[str] | None, title: str
+) -> list[str]:
+    """Entity paths/patterns -> query expressions understood by the viewer."""
+    out: list[str] = []
+    for raw in patterns:
+        sign, expr = ("-", raw[1:]) if raw.startswith("-") else ("+", raw.removeprefix("+"))
+        expr = expr.strip()
+        if _is_plain(expr):
+            out.append(f"{sign} {expr}")
+            continue
+        if entities is None:
+            raise ValueError(
+                f"view {title!r}: pattern {expr!r} has '*' other than a trailing '/**', which "
+                "Rerun 0.41 does not support; pass entities=... to expand it"
+            )
+        regex = _glob_regex(expr)
+        out.extend(f"{sign} {e}" for e in entities if regex.fullmatch("/" + e.strip("/")))
+    return out
+
+
+def time_series_blueprint(
+    groups: Mapping[str, Sequence[str]], *, entities: Sequence[str] | None = None
+) -> rrb.Blueprint:
+    """Build a grid of time-series views, one per group.
+
+    Parameters
+    ----------
+    groups : mapping of str to sequence of str
+        View title -> entity paths or patterns. ``"/plant/x"`` and subtrees such as
+        ``"/observer/**"`` are passed to the viewer as they are; a leading ``-`` excludes.
+        Rerun 0.41 supports ``*`` only as a trailing ``/**``, so other wildcards
+        (``"/observer/**/r"``, ``"/error/sp*"``) are expanded against ``entities``.
+    entities : sequence of str, optional
+        Entity paths of the run (e.g. ``[s.entity for s in series]``), needed only for
+        patterns with inner wildcards.
+
+    Returns
+    -------
+    rerun.blueprint.Blueprint
+        ``Blueprint(Grid(TimeSeriesView(...), ...), auto_views=False)``.
+
+    Raises
+    ------
+    ValueError
+        If a pattern has an inner wildcard and ``entities`` is not given.
+    """
+    views = [
+        rrb.TimeSeriesView(
+            name=title, origin="/", contents=_view_contents(patterns, entities, title)
+        )
+        for title, patterns in groups.items()
+    ]
+    return rrb.Blueprint(rrb.Grid(*views), auto_views=False)
+
+
+def _column_values(column: object, n: int) -> np.ndarray:
+    """Arrow ``list<double>`` column -> ``(n, S)`` float64, null rows as NaN."""
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
+    column = column.combine_chunks() if isinstance(column, pa.ChunkedArray) else column
+    lengths = pc.list_value_length(column).drop_null().to_numpy()
+    width = int(lengths.max()) if lengths.size else 0
+    if np.any(lengths != width):
+        raise ValueError("scalar rows of differing lengths")
+    out = np.full((n, width), np.nan)
+    valid = column.is_valid().to_numpy(zero_copy_only=False)
+    flat = pc.list_flatten(column).to_numpy(zero_copy_only=False)
+    out[valid] = flat.astype(np.float64).reshape(-1, width)
+    return out
+
+
+def read_recording(path: str | Path) -> dict[str, np.ndarray]:
+    """Read the scalar series of a recording written by :func:`write_recording`.
+
+    Parameters
+    ----------
+    path : str or Path
+        ``.rrd`` file; the first recording store in it is read.
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        ``"sim_time"``: float seconds, shape ``(N,)``, sorted; and for every scalar
+        entity (key with leading ``/``, e.g. ``"/plant/x"``) an ``(N, S)`` float64 array.
+        Rows where an entity has no sample are NaN. A recording without samples gives
+        only an empty ``"sim_time"``.
+    """
+    from rerun.chunk import RrdReader
+
+    store = RrdReader(Path(path)).stream().collect()
+    if TIMELINE not in [c.name for c in store.schema().index_columns()]:
+        return {TIMELINE: np.empty(0)}  # a run with no samples has no timeline at all
+    table = store.reader(index=TIMELINE).to_arrow_table()
+    table = table.sort_by(TIMELINE)
+    time_ns = table.column(TIMELINE).cast("int64").to_numpy()
+    out: dict[str, np.ndarray] = {TIMELINE: time_ns / 1e9}
+    for name in table.column_names:
+        if name.endswith(_SCALARS_SUFFIX):
+            entity = name[: -len(_SCALARS_SUFFIX)]
+            out[entity] = _column_values(table.column(name), table.num_rows)
+    return out
