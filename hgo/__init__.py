@@ -1,0 +1,1 @@
+"""hgo: a research harness for high-gain observer experiments."""

@@ -1,0 +1,91 @@
+"""Building blocks of an experiment: plant, observer, controller.
+
+Each component is a small Python object that carries its parameters (a float64
+vector ``p``), its initial state and the *names* of its signals, plus plain Python
+functions written in the numba-compatible subset (scalar arithmetic, loops, numpy
+indexing). The engine (:mod:`hgo.engine`) composes these functions into one
+compiled vector field; a component whose functions numba cannot compile still runs,
+on a slower pure-Python path (the engine warns once and says why).
+
+Function signatures (arrays are float64, outputs are written in place):
+
+* Plant   ``f(t, x, u, p, dx)``; ``h(t, x, p, y)`` — measured outputs before noise.
+* Observer ``f(t, z, d, y, u, p, dz)`` — continuous dynamics of the observer state z;
+  ``update(t, z, d, y, u, p)`` — discrete logic (gain switches, timers, saturation),
+  applied between integration steps, may modify z and d;
+  ``estimate(t, z, d, p, xhat)`` — the estimate of the plant states listed in
+  ``estimated_states``.
+* Controller ``u(t, xhat, y, p, u)`` — input computed from one observer's estimate.
+
+Why discrete updates between steps: hybrid logic (noise samples, gain switches,
+timers, saturations) then never makes a step straddle a discontinuity, and the
+vector fields stay smooth and compilable.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+def no_update(t, z, d, y, u, p):  # noqa: ARG001 - fixed signature
+    """Observer without discrete logic."""
+    return
+
+
+@dataclass
+class Plant:
+    """A plant ``dx/dt = f(t, x, u)``, ``y = h(t, x)`` (noise is added by the engine).
+
+    ``output_state`` is the index of the state that measured channel 0 reads; it
+    defines ŷ for the output-error metric (Sanfelice & Praly (11)).
+    """
+
+    name: str
+    state_names: list[str]
+    output_names: list[str]
+    input_names: list[str]
+    x0: np.ndarray
+    p: np.ndarray
+    f: object
+    h: object
+    output_state: int = 0
+    spectral_radius: float = 0.0  # of df/dx, bounds the explicit step (RK4 stability)
+
+    @property
+    def nx(self) -> int:
+        return len(self.state_names)
+
+
+@dataclass
+class Observer:
+    """An observer with continuous state z, discrete state d and parameters p."""
+
+    name: str
+    state_names: list[str]
+    disc_names: list[str]
+    estimated_states: list[int]  # plant state indices estimated by ``estimate``
+    z0: np.ndarray
+    d0: np.ndarray
+    p: np.ndarray
+    f: object
+    estimate: object
+    update: object = no_update
+    spectral_radius: float = 0.0  # largest |eigenvalue| of the stiffest linear part
+    # extra names -> state columns, for logging (e.g. {"r": [2]})
+    signals: dict[str, list[int]] = field(default_factory=dict)
+
+    @property
+    def nz(self) -> int:
+        return len(self.state_names)
+
+
+@dataclass
+class Controller:
+    """Output feedback ``u = k(t, xhat, y)`` using the estimate of observer ``observer``."""
+
+    name: str
+    p: np.ndarray
+    u: object
+    observer: str | None = None

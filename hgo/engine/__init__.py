@@ -1,0 +1,1 @@
+"""Simulation engine: composition of components into one compiled kernel, integrators."""

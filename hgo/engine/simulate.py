@@ -1,0 +1,186 @@
+"""Run a composed system: one trajectory on an output grid, or an ensemble of runs.
+
+Integrator settings (:class:`SolverSettings`):
+
+* ``method="rk4"``: classical RK4, equal substeps of at most ``h_max`` inside every
+  segment between events (noise samples, output instants). The step is also capped at
+  ``stability_safety * 2.785 / rho``, where ``rho`` is the largest spectral radius the
+  components declare (2.785 is RK4's stability limit on the negative real axis): the
+  margin of a stiff high-gain observer is computed, not guessed.
+* ``method="dopri5"``: Dormand–Prince 5(4) with error control (``rtol``, ``atol``) and
+  steps clipped to the same events.
+
+Units: time in seconds of simulated time; states in the plant's own units.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from hgo.engine.codegen import load_kernel
+from hgo.engine.system import System
+
+RK4_STABILITY = 2.785  # |h*lambda| limit of classical RK4 on the negative real axis
+METHODS = {"rk4": 0, "dopri5": 1}
+STATUS = {0: "ok", 1: "non-finite state", 2: "state left the bound", 3: "step size underflow"}
+
+
+@dataclass(frozen=True)
+class SolverSettings:
+    """Integrator and output grid (times in seconds)."""
+
+    t_end: float
+    dt_out: float
+    method: str = "dopri5"
+    h_max: float = 0.01
+    rtol: float = 1e-8
+    atol: float = 1e-10
+    state_bound: float = 1e6
+    window: float = 0.0  # trailing window of the mean-error metrics; 0: last quarter
+    stability_safety: float = 0.9
+
+    def validate(self) -> None:
+        if self.method not in METHODS:
+            raise ValueError(f"solver.method: '{self.method}' not in {sorted(METHODS)}")
+        for key in ("t_end", "dt_out", "h_max", "rtol", "atol", "state_bound"):
+            if not getattr(self, key) > 0:
+                raise ValueError(f"solver.{key} must be > 0, got {getattr(self, key)}")
+        ratio = self.t_end / self.dt_out
+        if abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio):
+            raise ValueError(f"solver.t_end ({self.t_end}) must be a multiple of "
+                             f"solver.dt_out ({self.dt_out})")
+        if not 0 <= self.window <= self.t_end:
+            raise ValueError(f"solver.window must be in [0, t_end={self.t_end}], "
+                             f"got {self.window}")
+
+    @property
+    def t_window(self) -> float:
+        return self.window if self.window > 0 else self.t_end / 4
+
+    def effective_h_max(self, spectral_radius: float) -> float:
+        """Step cap: h_max, and for RK4 the stability limit of the stiffest component."""
+        if self.method == "rk4" and spectral_radius > 0:
+            return min(self.h_max, self.stability_safety * RK4_STABILITY / spectral_radius)
+        return self.h_max
+
+
+@dataclass
+class Noise:
+    """Sample-and-hold measurement noise: ``samples[k]`` holds on [k*dt, (k+1)*dt)."""
+
+    samples: np.ndarray  # (n_samples, ny)
+    dt: float  # math.inf for a constant (e.g. zero) signal
+
+
+@dataclass
+class Trajectory:
+    """Signals on the output grid, up to the stop time (a failed run stops early)."""
+
+    t: np.ndarray
+    z: np.ndarray
+    d: np.ndarray
+    y: np.ndarray
+    m: np.ndarray
+    u: np.ndarray
+    xh: np.ndarray
+    status: int
+    t_stop: float
+    acc: np.ndarray  # window integrals of squared errors, then the window length
+
+    @property
+    def ok(self) -> bool:
+        return self.status == 0
+
+    @property
+    def message(self) -> str:
+        return STATUS[self.status]
+
+
+def _kernel(system: System):
+    """The compiled kernel module, or the pure-Python one with a warning."""
+    try:
+        module = load_kernel(system, compiled=True)
+        return module, True
+    except ImportError:  # numba missing
+        return load_kernel(system, compiled=False), False
+
+
+def _call(system: System, fname: str, *args):
+    module, _ = _kernel(system)
+    try:
+        return getattr(module, fname)(*args)
+    except Exception as err:  # numba typing/lowering errors of user components
+        if type(err).__module__.split(".")[0] != "numba":
+            raise
+        first = _reason(str(err))
+        warnings.warn(f"hgo: numba could not compile this system ({first}); running on the "
+                      "pure-Python path (slow).", RuntimeWarning, stacklevel=3)
+        return getattr(load_kernel(system, compiled=False), fname)(*args)
+
+
+def _reason(message: str) -> str:
+    """The informative line of a numba error (not its 'Failed in ...' preamble)."""
+    for line in message.strip().splitlines():
+        line = line.strip()
+        if line and not line.startswith(("Failed in", "During:", "File ", "<source")):
+            return line
+    return message.strip().splitlines()[0] if message.strip() else "unknown error"
+
+
+def _common_args(system: System, solver: SolverSettings, noise: Noise) -> tuple:
+    h_max = solver.effective_h_max(system.spectral_radius())
+    return (float(noise.dt), float(solver.t_end), float(solver.dt_out),
+            METHODS[solver.method], float(h_max), float(solver.rtol), float(solver.atol),
+            float(solver.state_bound), float(solver.t_window))
+
+
+def simulate(system: System, solver: SolverSettings, noise: Noise,
+             params: np.ndarray | None = None, z0: np.ndarray | None = None) -> Trajectory:
+    """Integrate one run and record every signal on the grid ``k * solver.dt_out``."""
+    solver.validate()
+    (noise_dt, t_end, dt_out, *rest) = _common_args(system, solver, noise)
+    n_out = int(round(t_end / dt_out)) + 1
+    ny, nu = noise.samples.shape[1], len(system.plant.input_names)
+    z = (system.z0() if z0 is None else np.asarray(z0, float)).copy()
+    d = system.d0()
+    P = system.params() if params is None else np.asarray(params, float)
+    rec = [np.zeros((n_out, k)) for k in (system.nz, system.nd, ny, ny, nu, system.nxh)]
+    acc = np.zeros(system.nxh + len(system.observers) + 1)
+    status, n_rec, t_stop = _call(
+        system, "integrate", z, d, P, np.ascontiguousarray(noise.samples, float), noise_dt,
+        t_end, dt_out, *rest, True, *rec, acc)
+    t = np.arange(n_rec) * dt_out
+    Z, D, Y, M, U, XH = (a[:n_rec] for a in rec)
+    return Trajectory(t, Z, D, Y, M, U, XH, int(status), float(t_stop), acc)
+
+
+def simulate_ensemble(system: System, solver: SolverSettings, noise: list[Noise] | Noise,
+                      params: np.ndarray, z0: np.ndarray) -> dict[str, np.ndarray]:
+    """Integrate many runs in parallel (numba ``prange``); metrics only, no trajectories.
+
+    ``params`` (M, n_p) and ``z0`` (M, n_z) give one row per member; ``noise`` is one
+    :class:`Noise` per member (same ``dt``) or one shared by all.
+    Returns ``acc`` (M, n_acc) window integrals, ``status`` (M,) and ``t_stop`` (M,).
+    """
+    solver.validate()
+    params = np.ascontiguousarray(params, float)
+    z0 = np.ascontiguousarray(z0, float)
+    n = params.shape[0]
+    members = noise if isinstance(noise, list) else [noise] * n
+    samples = np.ascontiguousarray(np.stack([m.samples for m in members]), float)
+    d0 = np.tile(system.d0(), (n, 1))
+    acc = np.zeros((n, system.nxh + len(system.observers) + 1))
+    status = np.zeros(n, dtype=np.int64)
+    t_stop = np.zeros(n)
+    args = _common_args(system, solver, members[0])
+    _call(system, "integrate_ensemble", z0, d0, params, samples, *args, acc, status, t_stop)
+    return {"acc": acc, "status": status, "t_stop": t_stop}
+
+
+def no_noise(ny: int) -> Noise:
+    """A zero measurement noise on ``ny`` channels."""
+    return Noise(np.zeros((1, ny)), math.inf)

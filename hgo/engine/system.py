@@ -1,0 +1,98 @@
+"""A composed experiment: one plant, observers, an optional controller, and its layout.
+
+The layout fixes where each component lives in the flat vectors the kernel works on:
+continuous state ``z = [x | z_obs1 | z_obs2 | ...]``, discrete state
+``d = [d_obs1 | ...]``, parameters ``P = [p_plant | p_obs1 | ... | p_ctrl]`` and stacked
+estimates ``xh = [xhat_obs1 | ...]``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from hgo.components import Controller, Observer, Plant
+
+
+def _offsets(sizes: list[int]) -> list[tuple[int, int]]:
+    ends = np.cumsum([0, *sizes])
+    return [(int(a), int(b)) for a, b in zip(ends[:-1], ends[1:], strict=True)]
+
+
+@dataclass
+class System:
+    """Plant + observers (+ controller), with the index ranges of each part."""
+
+    plant: Plant
+    observers: list[Observer]
+    controller: Controller | None = None
+    z_slices: list[tuple[int, int]] = field(init=False)
+    d_slices: list[tuple[int, int]] = field(init=False)
+    p_slices: list[tuple[int, int]] = field(init=False)
+    xh_slices: list[tuple[int, int]] = field(init=False)
+
+    def __post_init__(self) -> None:
+        if not self.observers:
+            raise ValueError("observer: at least one observer is required")
+        names = [o.name for o in self.observers]
+        if len(set(names)) != len(names):
+            raise ValueError(f"observer names must be unique, got {names}")
+        obs = self.observers
+        self.z_slices = _offsets([self.plant.nx] + [o.nz for o in obs])
+        self.d_slices = _offsets([len(o.disc_names) for o in obs])
+        ctrl_p = [] if self.controller is None else [len(self.controller.p)]
+        self.p_slices = _offsets([len(self.plant.p)] + [len(o.p) for o in obs] + ctrl_p)
+        self.xh_slices = _offsets([len(o.estimated_states) for o in obs])
+        self.controlled_observer()  # validate early
+
+    @property
+    def nz(self) -> int:
+        return self.z_slices[-1][1]
+
+    @property
+    def nd(self) -> int:
+        return self.d_slices[-1][1] if self.d_slices else 0
+
+    @property
+    def nxh(self) -> int:
+        return self.xh_slices[-1][1]
+
+    def controlled_observer(self) -> int | None:
+        """Index of the observer whose estimate feeds the controller."""
+        if self.controller is None:
+            return None
+        names = [o.name for o in self.observers]
+        wanted = self.controller.observer or names[0]
+        if wanted not in names:
+            raise ValueError(f"controller.observer: '{wanted}' is not one of {names}")
+        return names.index(wanted)
+
+    def z0(self) -> np.ndarray:
+        return np.concatenate([self.plant.x0] + [o.z0 for o in self.observers]).astype(float)
+
+    def d0(self) -> np.ndarray:
+        parts = [o.d0 for o in self.observers]
+        return np.concatenate(parts).astype(float) if parts else np.zeros(0)
+
+    def params(self) -> np.ndarray:
+        parts = [self.plant.p] + [o.p for o in self.observers]
+        if self.controller is not None:
+            parts.append(self.controller.p)
+        return np.concatenate(parts).astype(float)
+
+    def estimate_map(self) -> np.ndarray:
+        """Plant state index estimated by each column of xh."""
+        return np.array([i for o in self.observers for i in o.estimated_states], dtype=np.int64)
+
+    def yhat_columns(self) -> np.ndarray:
+        """Column of xh holding each observer's estimate of the measured state (or -1)."""
+        cols = []
+        for o, (a, _) in zip(self.observers, self.xh_slices, strict=True):
+            est = list(o.estimated_states)
+            cols.append(a + est.index(self.plant.output_state)
+                        if self.plant.output_state in est else -1)
+        return np.array(cols, dtype=np.int64)
+
+    def spectral_radius(self) -> float:
+        return max([self.plant.spectral_radius] + [o.spectral_radius for o in self.observers])

@@ -1,0 +1,1 @@
+"""Observers: continuous dynamics, discrete logic, the estimate they expose."""

@@ -1,0 +1,100 @@
+"""High-gain observer for the triangular form, Sanfelice & Praly (5)-(7), any n >= 1.
+
+    dx^/dt = A x^ + F^(x^) - K(r) (y^ - y),   y^ = x^1,   K(r) = Lambda(r) K~,
+    Lambda(r) = diag(r, r^2, ..., r^n),
+
+with the gain r driven by one of three laws (``law``):
+
+* ``constant``: dr/dt = 0 (a classical high-gain observer with gain r(0)).
+* ``sign_indefinite``: Sanfelice & Praly (6),
+  dr/dt = p1 * ((y^ - y)^2 - p2) * r^(1-2b) + p1 * p2 / r^(2n).
+  r increases when (y^ - y)^2 > p2 and decreases when (y^ - y)^2 < p2 (1 - r^-(2n+1-2b));
+  [1, inf) is forward invariant.
+* ``dead_zone``: Sanfelice & Praly (4), dr/dt = p1 * max{0, (y^ - y)^2 - p2} * r^(1-2b):
+  r never decreases.
+
+The model F^ is affine, F^(x^) = M x^ + c with M lower triangular (the triangular
+structure of (3)); Sanfelice & Praly (19) is M = [[nu1, 0], [0, 0]], c = 0.
+
+State z = [x^1, ..., x^n, r]; parameters
+p = [n, law, p1, p2, b, K~ (n), M (n*n, row-major), c (n)].
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from hgo.components import Observer
+from hgo.engine.jit import kernel_helper
+
+LAWS = {"constant": 0, "sign_indefinite": 1, "dead_zone": 2}
+
+
+@kernel_helper
+def gain_rate(law, e, r, n, p1, p2, b):
+    """dr/dt of the chosen law for output error e = y^ - y (Sanfelice & Praly (4), (6))."""
+    if law == 1:
+        return p1 * ((e * e - p2) * r ** (1.0 - 2.0 * b) + p2 / r ** (2 * n))
+    if law == 2:
+        return p1 * max(0.0, e * e - p2) * r ** (1.0 - 2.0 * b)
+    return 0.0
+
+
+def f(t, z, d, y, u, p, dz):
+    """Sanfelice & Praly (5)-(7) with the law selected by p[1]."""
+    n = int(p[0])
+    K = p[5:5 + n]
+    M = p[5 + n:5 + n + n * n]
+    c = p[5 + n + n * n:5 + 2 * n + n * n]
+    r = z[n]
+    e = z[0] - y[0]
+    r_i = 1.0
+    for i in range(n):
+        r_i *= r
+        model = c[i]
+        for j in range(i + 1):
+            model += M[i * n + j] * z[j]
+        chain = z[i + 1] if i < n - 1 else 0.0
+        dz[i] = chain + model - K[i] * r_i * e
+    dz[n] = gain_rate(int(p[1]), e, r, n, p[2], p[3], p[4])
+
+
+def estimate(t, z, d, p, xhat):
+    """x^ = z[:n]."""
+    n = int(p[0])
+    for i in range(n):
+        xhat[i] = z[i]
+
+
+def _check(cond: bool, message: str) -> None:
+    if not cond:
+        raise ValueError(message)
+
+
+def triangular_hgo(name: str, K: Sequence[float], xhat0: Sequence[float], r0: float = 1.0,
+                   law: str = "sign_indefinite", p1: float = 4 / 3, p2: float = 0.008,
+                   b: float = 0.28, M: Sequence[Sequence[float]] | None = None,
+                   c: Sequence[float] | None = None) -> Observer:
+    """Build the observer; every parameter is checked before any integration."""
+    n = len(K)
+    M = np.zeros((n, n)) if M is None else np.asarray(M, float)
+    c = np.zeros(n) if c is None else np.asarray(c, float)
+    _check(n >= 1, f"observer {name}: K must have n >= 1 entries")
+    _check(law in LAWS, f"observer {name}.law: '{law}' not in {sorted(LAWS)}")
+    _check(len(xhat0) == n, f"observer {name}.xhat0 must have n={n} entries, got {len(xhat0)}")
+    _check(M.shape == (n, n), f"observer {name}.M must be {n}x{n}, got {M.shape}")
+    _check(np.allclose(M, np.tril(M)), f"observer {name}.M must be lower triangular (form (3))")
+    _check(c.shape == (n,), f"observer {name}.c must have n={n} entries")
+    _check(r0 >= 1, f"observer {name}.r0 must be >= 1 (Sanfelice & Praly, Theorem 2.2 C), "
+           f"got {r0}")
+    if law != "constant":
+        _check(p1 > 0, f"observer {name}.p1 must be > 0, got {p1}")
+        _check(p2 > 0, f"observer {name}.p2 must be > 0, got {p2}")
+        _check(0 < b < 0.5, f"observer {name}.b must be in (0, 1/2), got {b}")
+    p = np.concatenate([[n, LAWS[law], p1, p2, b], np.asarray(K, float), M.ravel(), c])
+    return Observer(name=name, state_names=[f"xhat{i + 1}" for i in range(n)] + ["r"],
+                    disc_names=[], estimated_states=list(range(n)),
+                    z0=np.array([*xhat0, r0], float), d0=np.zeros(0), p=p, f=f,
+                    estimate=estimate, signals={"r": [n]})

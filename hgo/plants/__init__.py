@@ -1,0 +1,1 @@
+"""Plants: dynamics, measured outputs before noise, true state for error computation."""
