@@ -75,6 +75,9 @@ class Observer:
     spectral_radius: float = 0.0  # largest |eigenvalue| of the stiffest linear part
     # extra names -> state columns, for logging (e.g. {"r": [2]})
     signals: dict[str, list[int]] = field(default_factory=dict)
+    # theoretical bounds on metrics, quantity -> value (e.g. Sanfelice & Praly (11):
+    # {"mean_sq_output_error": p2}); a missing quantity has no bound from the papers
+    bounds: dict[str, float] = field(default_factory=dict)
 
     @property
     def nz(self) -> int:

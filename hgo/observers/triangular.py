@@ -97,4 +97,9 @@ def triangular_hgo(name: str, K: Sequence[float], xhat0: Sequence[float], r0: fl
     return Observer(name=name, state_names=[f"xhat{i + 1}" for i in range(n)] + ["r"],
                     disc_names=[], estimated_states=list(range(n)),
                     z0=np.array([*xhat0, r0], float), d0=np.zeros(0), p=p, f=f,
-                    estimate=estimate, signals={"r": [n]})
+                    estimate=estimate, signals={"r": [n]}, bounds=_bounds(law, p2))
+
+
+def _bounds(law: str, p2: float) -> dict[str, float]:
+    """Theorem 2.2 (11): with law (6), limsup mean (y^ - y)^2 <= p2."""
+    return {"mean_sq_output_error": p2} if law == "sign_indefinite" else {}

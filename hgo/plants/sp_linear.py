@@ -36,7 +36,7 @@ def sp_linear_plant(nu1: float = 0.01, nu2: float = 0.01,
                  input_names=[], x0=np.asarray(x0, float), p=np.array([nu1, nu2], float),
                  f=f, h=h, output_state=0, spectral_radius=abs(nu1))
 
-    
+
 def mismatch_constants(nu1: float, nu2: float) -> tuple[np.ndarray, np.ndarray]:
     """Lemma 2.1 constants (gamma, L) of (18) against the model [nu1*x^1, 0]."""
     return np.array([abs(nu2), 0.0]), np.array([abs(nu1), 0.0])

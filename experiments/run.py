@@ -1,0 +1,25 @@
+"""Hydra entry point: ``python experiments/run.py experiment=sp_fig1`` (add ``-m`` to sweep).
+
+Each job writes into its Hydra run directory (under ``outputs/``): ``recording.rrd``
+(open with ``rerun <file>``), ``metrics.csv`` and the composed config in ``.hydra/``.
+"""
+
+from __future__ import annotations
+
+import hydra
+from hydra.core.hydra_config import HydraConfig
+from omegaconf import DictConfig
+
+from hgo.config import register_configs
+from hgo.runner import run
+
+register_configs()
+
+
+@hydra.main(version_base="1.3", config_path="../conf", config_name="config")
+def main(cfg: DictConfig) -> None:
+    run(cfg, HydraConfig.get().runtime.output_dir)
+
+
+if __name__ == "__main__":
+    main()

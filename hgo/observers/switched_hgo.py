@@ -1,0 +1,227 @@
+"""High-gain observer with switched gain, Ahrens & Khalil (8)-(10) and (26)-(28), any r >= 1.
+
+    dx^/dt = A x^ + B phi0(x^, w, u) + H (y - C x^),                  Ahrens & Khalil (8), (26)
+    H = H_j = [alpha_1^j / eps_j, alpha_2^j / eps_j^2, ..., alpha_r^j / eps_j^r]^T,  (27)-(28)
+
+with (A, B, C) the chain of integrators of (1)-(3), y = x1 + v the noisy measurement
+(channel 0) and the nominal model
+
+    phi0(x^, w, u) = sum_i m_i sat(x^_i) + b0 * w * u,   w = y[w_index] (measured, e.g. x3).
+
+For the field-controlled DC motor (r = 2, Ahrens & Khalil Section 4) m = (0, -0.11),
+b0 = 0.1 and w = x3: phi0 = -0.11 x^2 + 0.1 x3 u against the true phi = -0.1 x2 + 0.1 x3 u.
+
+Switching scheme, Ahrens & Khalil Section 3.1 (read "|y - x^1| > delta"), evaluated by
+``update`` after every integration step, so switching instants are step boundaries:
+
+1. H = H1 and the delay timer is reset whenever |y - x^1| > delta;
+2. when y - x^1 enters (or starts in) [-delta, delta] the timer starts, H stays H1;
+3. after T_d spent inside the zone without leaving it, H = H2.
+
+After the switch, an exit from the zone switches back to H1 (rule 1) and restarts the cycle.
+A fixed-gain observer is the same class with one gain (``eps2=None``): the zone timer is
+still kept (it tells when the error settled) but the gain never changes.
+
+Saturation (Ahrens & Khalil Section 4, "the estimates are saturated outside [-100, 100]"):
+the *exposed* estimate (``estimate``: what the controller and the error metrics see) and the
+argument of phi0 are saturated at +-``saturation``; the observer state z itself is not (a
+saturated state would change the observer's dynamics and its convergence). This makes the
+controller and phi0 globally bounded in x^ (Assumptions 2(2) and 3), which is what protects
+the closed loop from the peaking of x^2, ..., x^r. x^1 is *not* saturated by default: it
+does not peak (it tracks the measurement) and the rotor position grows without bound in
+speed tracking, so a saturated x^1 would only corrupt the position error; pass
+``saturate_x1=True`` to saturate it as well (the paper's literal wording).
+
+Continuous state z = [x^1, ..., x^r]. Parameters (``param_names(r)``)
+p = [r, n_gains, delta, T_d, saturation, saturate_x1, w_index, b0, eps1, eps2,
+     alpha^1 (r), alpha^2 (r), m (r)].
+Discrete state d (``DISC_NAMES``) = [gain (active index 1 or 2), eps (active eps, for
+plotting eps(t)), t_enter (time the error entered the zone, -1 when outside), timer (time
+spent in the zone so far, 0 outside), n_switches (number of gain changes, both directions),
+t_switch (time of the last gain change, -1 before any)].
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from hgo.components import Observer
+from hgo.engine.jit import kernel_helper
+
+#: Names of the discrete state entries (see module docstring).
+DISC_NAMES = ["gain", "eps", "t_enter", "timer", "n_switches", "t_switch"]
+_HEAD = ["r", "n_gains", "delta", "T_d", "saturation", "saturate_x1", "w_index", "b0",
+         "eps1", "eps2"]
+_N_HEAD = len(_HEAD)
+_TIME_TOL = 1e-12
+
+
+def param_names(r: int) -> list[str]:
+    """Names of the parameter vector entries of an observer of order r."""
+    return (_HEAD + [f"alpha1_{i + 1}" for i in range(r)] + [f"alpha2_{i + 1}" for i in range(r)]
+            + [f"m_{i + 1}" for i in range(r)])
+
+
+@kernel_helper
+def saturated(i, value, p):
+    """Estimate i (0-based) saturated at +-p[4]; x^1 only if p[5] != 0."""
+    if i == 0 and p[5] == 0.0:
+        return value
+    return min(max(value, -p[4]), p[4])
+
+
+@kernel_helper
+def nominal_model(z, y, u, p, r):
+    """phi0(x^, w, u) = sum_i m_i sat(x^_i) + b0 w u (Ahrens & Khalil (8), Assumption 3)."""
+    phi = 0.0
+    for i in range(r):
+        mi = p[_N_HEAD + 2 * r + i]
+        if mi != 0.0:
+            phi += mi * saturated(i, z[i], p)
+    w_index = int(p[6])
+    if w_index >= 0 and p[7] != 0.0:
+        phi += p[7] * y[w_index] * u[0]
+    return phi
+
+
+def f(t, z, d, y, u, p, dz):
+    """Ahrens & Khalil (26) with H = H1 (27) or H2 (28) as selected by d[0]."""
+    r = int(p[0])
+    if d[0] < 1.5:
+        eps = p[8]
+        a0 = _N_HEAD
+    else:
+        eps = p[9]
+        a0 = _N_HEAD + r
+    e = y[0] - z[0]
+    phi0 = nominal_model(z, y, u, p, r)
+    scale = 1.0
+    for i in range(r):
+        scale /= eps
+        chain = z[i + 1] if i < r - 1 else phi0
+        dz[i] = chain + p[a0 + i] * scale * e
+
+
+def update(t, z, d, y, u, p):
+    """Switching scheme of Ahrens & Khalil Section 3.1 on the output error y - x^1."""
+    e = y[0] - z[0]
+    if abs(e) > p[2]:  # rule 1: outside the zone, reset the timer, H = H1
+        d[2] = -1.0
+        d[3] = 0.0
+        if d[0] > 1.5:
+            d[0] = 1.0
+            d[4] += 1.0
+            d[5] = t
+    else:
+        if d[2] < 0.0:  # rule 2: entered (or started in) the zone, start the timer
+            d[2] = t
+        d[3] = t - d[2]
+        # rule 3: after T_d inside the zone, H = H2
+        if p[1] > 1.5 and d[0] < 1.5 and d[3] >= p[3] - _TIME_TOL * max(1.0, t):
+            d[0] = 2.0
+            d[4] += 1.0
+            d[5] = t
+    d[1] = p[8] if d[0] < 1.5 else p[9]
+
+
+def estimate(t, z, d, p, xhat):
+    """The saturated estimate x^ fed to the controller and to the error metrics."""
+    r = int(p[0])
+    for i in range(r):
+        xhat[i] = saturated(i, z[i], p)
+
+
+def injection_matrix(alpha: Sequence[float], eps: float,
+                     model: Sequence[float] | None = None) -> np.ndarray:
+    """A - H C + B m^T: the linear part of (26) with gain (9) (saturation inactive)."""
+    alpha = np.asarray(alpha, float)
+    r = alpha.size
+    mat = np.diag(np.ones(r - 1), 1)
+    mat[:, 0] -= alpha / eps ** np.arange(1, r + 1)
+    if model is not None:
+        mat[r - 1, :] += np.asarray(model, float)
+    return mat
+
+
+def spectral_radius(alphas: Sequence[Sequence[float]], epss: Sequence[float],
+                    model: Sequence[float] | None = None) -> float:
+    """Largest |eigenvalue| of the injection matrix over all gains (bounds the RK4 step)."""
+    return float(max(np.max(np.abs(np.linalg.eigvals(injection_matrix(a, e, model)))))
+                 for a, e in zip(alphas, epss, strict=True))
+
+
+def _check(cond: bool, message: str) -> None:
+    if not cond:
+        raise ValueError(message)
+
+
+def _check_alpha(name: str, key: str, alpha: np.ndarray, r: int) -> None:
+    _check(alpha.shape == (r,), f"observer {name}.{key} must have r={r} entries, "
+           f"got {alpha.size}")
+    _check(bool(np.all(np.isfinite(alpha))), f"observer {name}.{key} must be finite")
+    roots = np.roots(np.concatenate([[1.0], alpha]))
+    _check(bool(np.all(roots.real < 0)), f"observer {name}.{key}: the roots of "
+           f"s^r + alpha_1 s^(r-1) + ... + alpha_r (Ahrens & Khalil (10)) must have negative "
+           f"real parts, got {np.round(roots, 6).tolist()}")
+
+
+def switched_hgo(name: str, alpha1: Sequence[float], eps1: float,
+                 alpha2: Sequence[float] | None = None, eps2: float | None = None,
+                 delta: float = 0.05, T_d: float = 0.15,
+                 xhat0: Sequence[float] = (math.pi, 0.0), saturation: float = 100.0,
+                 saturate_x1: bool = False, model: Sequence[float] = (0.0, -0.11),
+                 input_gain: float = 0.1, w_index: int = 1) -> Observer:
+    """The (switched-gain) high-gain observer, Ahrens & Khalil (8)-(10), (26)-(28), 3.1.
+
+    ``alpha1, eps1``: the gain H1 (27) used first; ``alpha2, eps2``: the gain H2 (28) used
+    after the switch (``alpha2`` defaults to ``alpha1``); ``eps2=None`` gives a fixed-gain
+    observer (8)-(9). ``delta``: half-width of the switching zone [-delta, delta];
+    ``T_d``: delay timer (s). ``model`` (m_1..m_r), ``input_gain`` (b0) and ``w_index``
+    define phi0 = sum m_i x^_i + b0 y[w_index] u (``w_index=-1``: no w u term); the
+    defaults are the DC motor's phi0 = -0.11 x^2 + 0.1 x3 u. Defaults of delta, T_d, xhat0
+    and saturation are Ahrens & Khalil Section 4 (delta = 0.05, T_d = 0.15 s,
+    x^(0) = (pi, 0), saturation at 100).
+    """
+    _check(isinstance(name, str) and name != "", "observer name must be a non-empty string")
+    a1 = np.atleast_1d(np.asarray(alpha1, float))
+    r = a1.size
+    _check(r >= 1, f"observer {name}.alpha1 must have r >= 1 entries")
+    _check_alpha(name, "alpha1", a1, r)
+    _check(math.isfinite(eps1) and eps1 > 0, f"observer {name}.eps1 must be in (0, inf), "
+           f"got {eps1}")
+    if eps2 is None:
+        _check(alpha2 is None, f"observer {name}.alpha2 given without eps2: a switched "
+               "observer needs both (or neither, for a fixed gain)")
+        n_gains, a2, e2 = 1, a1, float(eps1)
+    else:
+        n_gains = 2
+        a2 = a1 if alpha2 is None else np.atleast_1d(np.asarray(alpha2, float))
+        _check_alpha(name, "alpha2", a2, r)
+        e2 = float(eps2)
+        _check(math.isfinite(e2) and e2 >= eps1, f"observer {name}.eps2 must be in "
+               f"[eps1={eps1}, inf) (Ahrens & Khalil (28): 0 < eps1 < eps2), got {eps2}")
+    _check(math.isfinite(delta) and delta > 0, f"observer {name}.delta must be in (0, inf), "
+           f"got {delta}")
+    _check(math.isfinite(T_d) and T_d >= 0, f"observer {name}.T_d must be in [0, inf), "
+           f"got {T_d}")
+    _check(saturation > 0, f"observer {name}.saturation must be in (0, inf] (inf: none), "
+           f"got {saturation}")
+    _check(len(xhat0) == r, f"observer {name}.xhat0 must have r={r} entries, "
+           f"got {len(xhat0)}")
+    m = np.asarray(model, float)
+    _check(m.shape == (r,), f"observer {name}.model must have r={r} entries "
+           f"(m_1..m_r of phi0), got {m.size}")
+    _check(isinstance(w_index, (int, np.integer)) and w_index >= -1,
+           f"observer {name}.w_index must be an output channel index >= 0, or -1 for none, "
+           f"got {w_index}")
+    p = np.concatenate([[r, n_gains, delta, T_d, saturation, float(bool(saturate_x1)),
+                         w_index, input_gain, eps1, e2], a1, a2, m])
+    rho = spectral_radius([a1, a2], [eps1, e2], m)
+    d0 = np.array([1.0, eps1, -1.0, 0.0, 0.0, -1.0])
+    return Observer(name=name, state_names=[f"xhat{i + 1}" for i in range(r)],
+                    disc_names=list(DISC_NAMES), estimated_states=list(range(r)),
+                    z0=np.asarray(xhat0, float), d0=d0, p=p, f=f, estimate=estimate,
+                    update=update, spectral_radius=rho)

@@ -1,0 +1,173 @@
+"""From a composed Hydra config to a run directory: recording, metrics, config.
+
+    build(cfg)  -> Experiment (system, solver settings, noise model): every parameter is
+                   checked here, before any integration.
+    run(cfg, out_dir) -> RunResult: simulate, write ``recording.rrd`` and ``metrics.csv``;
+                   a run that stops early (non-finite state, state bound) keeps everything
+                   up to its stop time and is marked failed in ``metrics.csv``.
+"""
+
+from __future__ import annotations
+
+import logging
+import re
+import uuid
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from hydra.utils import instantiate
+from omegaconf import DictConfig, OmegaConf
+
+from hgo.components import Controller, Observer, Plant
+from hgo.engine.simulate import SolverSettings, Trajectory, simulate
+from hgo.engine.system import System
+from hgo.metrics import metrics_table
+from hgo.noise import NoiseModel
+from hgo.recording import Series, time_series_blueprint, write_recording
+
+log = logging.getLogger(__name__)
+
+
+class SimulationFailed(RuntimeError):
+    """A run stopped early; its outputs up to the stop time are written."""
+
+
+@dataclass
+class Experiment:
+    system: System
+    solver: SolverSettings
+    noise: NoiseModel
+    seed: int
+
+
+@dataclass
+class RunResult:
+    experiment: Experiment
+    trajectory: Trajectory
+    metrics: pd.DataFrame
+    out_dir: Path
+
+
+def _instantiate(node: DictConfig, group: str, expected: type, **kwargs):
+    obj = instantiate(node, **kwargs)
+    if not isinstance(obj, expected):
+        raise TypeError(f"{group}._target_ must build a {expected.__name__}, "
+                        f"got {type(obj).__name__}")
+    return obj
+
+
+def _observers(cfg: DictConfig) -> list[Observer]:
+    if not cfg.observer:
+        raise ValueError("observer: the config group is empty; choose an observer option")
+    return [_instantiate(node, f"observer.{name}", Observer, name=name)
+            for name, node in cfg.observer.items()]
+
+
+def _controller(cfg: DictConfig) -> Controller | None:
+    node = cfg.get("controller")
+    return _instantiate(node, "controller", Controller) if node else None
+
+
+def solver_settings(cfg: DictConfig) -> SolverSettings:
+    """The ``solver`` group plus the metrics window, validated."""
+    s = cfg.solver
+    settings = SolverSettings(
+        t_end=s.t_end, dt_out=s.dt_out, method=s.method, h_max=s.h_max, rtol=s.rtol,
+        atol=s.atol, state_bound=s.state_bound, window=cfg.metrics.window,
+        stability_safety=s.stability_safety)
+    settings.validate()
+    return settings
+
+
+def build(cfg: DictConfig) -> Experiment:
+    """Instantiate and check every component; raises ValueError naming the bad key."""
+    solver = solver_settings(cfg)
+    plant = _instantiate(cfg.plant, "plant", Plant)
+    system = System(plant, _observers(cfg), _controller(cfg))
+    noise = _instantiate(cfg.noise, "noise", NoiseModel)
+    return Experiment(system, solver, noise, int(cfg.seed))
+
+
+def run_experiment(exp: Experiment) -> Trajectory:
+    """Sample the noise from the seed and integrate."""
+    ny = len(exp.system.plant.output_names)
+    noise = exp.noise.sample(exp.solver.t_end, ny, exp.seed)
+    return simulate(exp.system, exp.solver, noise)
+
+
+def signals(system: System, traj: Trajectory) -> list[Series]:
+    """Every time series of a run, under the entity paths of :mod:`hgo.recording`."""
+    plant = system.plant
+    x = traj.z[:, : plant.nx]
+    out = [Series("/plant/x", plant.state_names, x),
+           Series("/measurement/y", plant.output_names, traj.y),
+           Series("/measurement/noise", [f"m_{n}" for n in plant.output_names], traj.m)]
+    if plant.input_names:
+        out.append(Series("/input/u", plant.input_names, traj.u))
+    for obs, (za, _), (da, db), (xa, xb) in zip(system.observers, system.z_slices[1:],
+                                                system.d_slices, system.xh_slices, strict=True):
+        est = [plant.state_names[i] for i in obs.estimated_states]
+        xh = traj.xh[:, xa:xb]
+        out.append(Series(f"/observer/{obs.name}/xhat", [f"{n}_hat" for n in est], xh))
+        out.append(Series(f"/error/{obs.name}", [f"e_{n}" for n in est],
+                          xh - x[:, obs.estimated_states]))
+        for sig, cols in obs.signals.items():
+            names = [sig] if len(cols) == 1 else [f"{sig}{i + 1}" for i in range(len(cols))]
+            out.append(Series(f"/observer/{obs.name}/{sig}", names,
+                              traj.z[:, [za + c for c in cols]]))
+        if db > da:
+            out.append(Series(f"/observer/{obs.name}/discrete", obs.disc_names,
+                              traj.d[:, da:db]))
+    return out
+
+
+def blueprint(system: System, series: list[Series]):
+    """Default layout: states vs estimates, errors, gains and measurement."""
+    entities = [s.entity for s in series]
+    gains = [e for e in entities if e.startswith("/observer/") and not e.endswith("/xhat")]
+    groups = {
+        "states vs estimates": ["/plant/x"] + [e for e in entities if e.endswith("/xhat")],
+        "estimation errors x^ - x": ["/error/**"],
+        "observer gains and internal signals": gains or ["/observer/**"],
+        "measurement": ["/measurement/**"] + (["/input/u"] if "/input/u" in entities else []),
+    }
+    return time_series_blueprint(groups, entities=entities)
+
+
+def recording_id(out_dir: Path) -> str:
+    """A unique id per job (Rerun merges recordings that share one)."""
+    stem = re.sub(r"[^A-Za-z0-9_-]", "_", "_".join(out_dir.parts[-3:]))
+    return f"{stem}_{uuid.uuid4().hex[:8]}"
+
+
+def run(cfg: DictConfig, out_dir: str | Path) -> RunResult:
+    """Build, simulate and write ``recording.rrd`` and ``metrics.csv`` into ``out_dir``."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    exp = build(cfg)
+    traj = run_experiment(exp)
+    series = signals(exp.system, traj)
+    status_text = (f"ok: t = 0 .. {traj.t_stop:g} s" if traj.ok else
+                   f"failed at t = {traj.t_stop:g} s: {traj.message}")
+    write_recording(out_dir / "recording.rrd", traj.t, series,
+                    recording_id=recording_id(out_dir), blueprint=blueprint(exp.system, series),
+                    text={"/run/status": status_text,
+                          "/run/config": OmegaConf.to_yaml(cfg, resolve=True)})
+    table = metrics_table(exp.system, traj.acc, traj.status, traj.t_stop)
+    table.insert(0, "run", cfg.get("run_name", "run"))
+    table.to_csv(out_dir / "metrics.csv", index=False)
+    log.info("metrics:\n%s", table.to_string(index=False))
+    result = RunResult(exp, traj, table, out_dir)
+    if not traj.ok:
+        raise SimulationFailed(f"run stopped at t = {traj.t_stop:g} s: {traj.message} "
+                               f"(outputs up to then are in {out_dir})")
+    return result
+
+
+def finite_or_raise(values: np.ndarray, what: str) -> np.ndarray:
+    """No silent NaNs: a non-finite value in a derived signal is an error naming it."""
+    if not np.all(np.isfinite(values)):
+        raise ValueError(f"{what}: non-finite values")
+    return values
