@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from hydra.errors import InstantiationException
 from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
 
@@ -51,7 +52,12 @@ class RunResult:
 
 
 def _instantiate(node: DictConfig, group: str, expected: type, **kwargs):
-    obj = instantiate(node, **kwargs)
+    try:
+        obj = instantiate(node, **kwargs)
+    except InstantiationException as err:  # surface the factory's one-line message
+        if isinstance(err.__cause__, ValueError):
+            raise ValueError(str(err.__cause__)) from None
+        raise
     if not isinstance(obj, expected):
         raise TypeError(f"{group}._target_ must build a {expected.__name__}, "
                         f"got {type(obj).__name__}")
@@ -136,6 +142,12 @@ def blueprint(system: System, series: list[Series]):
     return time_series_blueprint(groups, entities=entities)
 
 
+def job_config_yaml(cfg: DictConfig) -> str:
+    """The composed job config (without Hydra's own node), resolved, as YAML."""
+    job = {k: v for k, v in cfg.items() if k != "hydra"}
+    return OmegaConf.to_yaml(OmegaConf.create(job), resolve=True)
+
+
 def recording_id(out_dir: Path) -> str:
     """A unique id per job (Rerun merges recordings that share one)."""
     stem = re.sub(r"[^A-Za-z0-9_-]", "_", "_".join(out_dir.parts[-3:]))
@@ -154,7 +166,7 @@ def run(cfg: DictConfig, out_dir: str | Path) -> RunResult:
     write_recording(out_dir / "recording.rrd", traj.t, series,
                     recording_id=recording_id(out_dir), blueprint=blueprint(exp.system, series),
                     text={"/run/status": status_text,
-                          "/run/config": OmegaConf.to_yaml(cfg, resolve=True)})
+                          "/run/config": job_config_yaml(cfg)})
     table = metrics_table(exp.system, traj.acc, traj.status, traj.t_stop)
     table.insert(0, "run", cfg.get("run_name", "run"))
     table.to_csv(out_dir / "metrics.csv", index=False)
