@@ -19,7 +19,7 @@ import pandas as pd
 from hgo.engine.simulate import STATUS
 from hgo.engine.system import System
 
-COLUMNS = ["observer", "quantity", "empirical", "bound", "ratio", "holds", "window",
+COLUMNS = ["observer", "postprocess", "quantity", "empirical", "bound", "ratio", "holds", "window",
            "status", "t_stop", "message"]
 
 
@@ -46,11 +46,14 @@ def window_means(system: System, acc: np.ndarray) -> dict[tuple[str, str], float
 
 
 def metrics_table(system: System, acc: np.ndarray, status: int, t_stop: float,
-                  extra_bounds: dict[tuple[str, str], float] | None = None) -> pd.DataFrame:
+                  extra_bounds: dict[tuple[str, str], float] | None = None,
+                  extra_rows: list[dict] | None = None) -> pd.DataFrame:
     """One row per (observer, quantity): empirical mean, bound, ratio, holds, run status.
 
-    A failed run (status != 0) keeps its rows with ``empirical`` = NaN, the status
-    ``failed``, the stop time and the cause.
+    ``extra_bounds`` fill the bound of the engine's rows, ``extra_rows`` (post-processing:
+    observer, postprocess, quantity, empirical, bound) are appended. A failed run
+    (status != 0) keeps its rows with ``empirical`` = NaN, the status ``failed``, the
+    stop time and the cause.
     """
     extra_bounds = extra_bounds or {}
     observers = {o.name: o for o in system.observers}
@@ -59,10 +62,14 @@ def metrics_table(system: System, acc: np.ndarray, status: int, t_stop: float,
         if status != 0:
             value = math.nan
         bound = extra_bounds.get((name, quantity), observers[name].bounds.get(quantity))
-        rows.append(_row(name, quantity, float(value), bound))
+        rows.append({**_row(name, quantity, float(value), bound), "postprocess": ""})
+    for extra in extra_rows or []:
+        row = _row(extra["observer"], extra["quantity"], float(extra["empirical"]),
+                   extra.get("bound"))
+        rows.append({**extra, **row})
     table = pd.DataFrame(rows)
     table["window"] = float(acc[-1])
     table["status"] = "ok" if status == 0 else "failed"
     table["t_stop"] = float(t_stop)
     table["message"] = STATUS[status]
-    return table[COLUMNS]
+    return table[COLUMNS + [c for c in table.columns if c not in COLUMNS]]

@@ -26,6 +26,7 @@ from hgo.engine.simulate import SolverSettings, Trajectory, simulate
 from hgo.engine.system import System
 from hgo.metrics import metrics_table
 from hgo.noise import NoiseModel
+from hgo.postprocess import PostOutput
 from hgo.recording import Series, time_series_blueprint, write_recording
 
 log = logging.getLogger(__name__)
@@ -49,6 +50,7 @@ class RunResult:
     trajectory: Trajectory
     metrics: pd.DataFrame
     out_dir: Path
+    series: list[Series]
 
 
 def _instantiate(node: DictConfig, group: str, expected: type, **kwargs):
@@ -154,27 +156,51 @@ def recording_id(out_dir: Path) -> str:
     return f"{stem}_{uuid.uuid4().hex[:8]}"
 
 
+def postprocess(cfg: DictConfig, exp: Experiment, traj: Trajectory) -> PostOutput:
+    """Apply every post-processor of the ``postprocess`` group, in config order."""
+    total = PostOutput()
+    for name, node in (cfg.get("postprocess") or {}).items():
+        out = instantiate(node).apply(exp.system, traj)
+        total.series += out.series
+        total.rows += [{"postprocess": name, **row} for row in out.rows]
+        total.bounds.update(out.bounds)
+    return total
+
+
+def _figures(cfg: DictConfig, result: RunResult) -> list[Path]:
+    """PNG figures of the ``figures`` mapping (name -> ``_target_`` taking the result)."""
+    paths = []
+    for name, node in (cfg.get("figures") or {}).items():
+        path = result.out_dir / f"{name}.png"
+        instantiate(node, _partial_=True)(result, path)
+        paths.append(path)
+    return paths
+
+
 def run(cfg: DictConfig, out_dir: str | Path) -> RunResult:
-    """Build, simulate and write ``recording.rrd`` and ``metrics.csv`` into ``out_dir``."""
+    """Build, simulate and write ``recording.rrd``, ``metrics.csv`` and figures."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     exp = build(cfg)
     traj = run_experiment(exp)
-    series = signals(exp.system, traj)
+    post = postprocess(cfg, exp, traj) if traj.ok else PostOutput()
+    series = signals(exp.system, traj) + post.series
     status_text = (f"ok: t = 0 .. {traj.t_stop:g} s" if traj.ok else
                    f"failed at t = {traj.t_stop:g} s: {traj.message}")
     write_recording(out_dir / "recording.rrd", traj.t, series,
                     recording_id=recording_id(out_dir), blueprint=blueprint(exp.system, series),
                     text={"/run/status": status_text,
                           "/run/config": job_config_yaml(cfg)})
-    table = metrics_table(exp.system, traj.acc, traj.status, traj.t_stop)
+    table = metrics_table(exp.system, traj.acc, traj.status, traj.t_stop, post.bounds,
+                          post.rows)
     table.insert(0, "run", cfg.get("run_name", "run"))
     table.to_csv(out_dir / "metrics.csv", index=False)
     log.info("metrics:\n%s", table.to_string(index=False))
-    result = RunResult(exp, traj, table, out_dir)
+    result = RunResult(exp, traj, table, out_dir, series)
     if not traj.ok:
         raise SimulationFailed(f"run stopped at t = {traj.t_stop:g} s: {traj.message} "
                                f"(outputs up to then are in {out_dir})")
+    _figures(cfg, result)
     return result
 
 
