@@ -9,6 +9,7 @@ is enough (the factory's signature then checks the keys).
 
 from __future__ import annotations
 
+import importlib
 from dataclasses import dataclass, field
 
 from hydra.core.config_store import ConfigStore
@@ -81,3 +82,13 @@ def register_configs() -> None:
     cs.store(group="schema/noise", name="noise", node=NoiseConf)
     cs.store(group="schema/solver", name="solver", node=SolverConf)
     cs.store(group="schema", name="metrics", node=MetricsConf)
+    for module, function in _EXTENSIONS:
+        try:
+            getattr(importlib.import_module(module), function)()
+        except ModuleNotFoundError as err:
+            if err.name != module:
+                raise
+
+
+# Modules that store the schemas of one paper's components, and their register function.
+_EXTENSIONS = [("hgo.sp_config", "register_sp_configs"), ("hgo.ak_config", "register_ak_configs")]
