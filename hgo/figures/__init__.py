@@ -1,0 +1,13 @@
+"""PNG figures of a run, one function per paper figure with signature ``f(result, path)``.
+
+``result`` is :class:`hgo.runner.RunResult` (``.experiment.system``, ``.trajectory``,
+``.series`` including post-processed series, ``.metrics``); the runner calls each entry of
+the ``figures`` config mapping and writes ``<name>.png`` in the run directory. Matplotlib
+runs on its non-interactive Agg backend (no display needed).
+"""
+
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")

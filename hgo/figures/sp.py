@@ -1,0 +1,190 @@
+"""Figures of Sanfelice & Praly (2010), Section 3: Figs. 1-5 from one run each.
+
+Each function takes a :class:`hgo.runner.RunResult` and a path and writes one PNG with
+the quantities of the paper's figure on the same axes (time in s on the abscissa);
+legends name the law (observer name and its p2), the copy, or the filter. The sweep of
+Fig. 3 (three values of p2, three runs) is drawn by ``experiments/aggregate.py`` with
+:func:`fig3_compare` from the recordings.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import hgo.figures  # noqa: F401  (selects the Agg backend)
+import matplotlib.pyplot as plt
+import numpy as np
+
+from hgo.recording import Series
+
+# the paper's colours: Fig. 1 blue/red, Fig. 3 blue/red/green, Figs. 4-5 green/black
+LAW_COLOURS = {"sign_indefinite": "tab:blue", "dead_zone": "tab:red"}
+COPY_COLOURS = ["tab:red", "tab:green", "tab:blue", "tab:orange", "tab:purple", "tab:brown"]
+
+
+def _series(result) -> dict[str, Series]:
+    return {s.entity: s for s in result.series}
+
+
+def _label(obs) -> str:
+    """Law and p2 of an observer, from its parameter vector when it is one of ours."""
+    from hgo.postprocess.sp_bounds import law6_parameters
+
+    par = law6_parameters(obs)
+    if obs.f.__module__ == "hgo.observers.triangular":
+        law = {0: "constant gain", 1: "law (6)", 2: "dead-zone law (4)"}[int(obs.p[1])]
+        return f"{obs.name}: {law}, p2 = {obs.p[3]:g}"
+    if par is not None and par["kind"] == "collection":
+        return f"{obs.name}: average of {par['N']} copies (21), p2 = {par['p2']:g}"
+    return obs.name
+
+
+def _save(fig, path: str | Path) -> None:
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _estimates_and_gain(result, path, title: str) -> None:
+    """x^1, x^2 (with the plant's x) and r of every observer, one panel each."""
+    t = result.trajectory.t
+    s = _series(result)
+    system = result.experiment.system
+    x = s["/plant/x"]
+    n = x.values.shape[1]
+    fig, axes = plt.subplots(n + 1, 1, figsize=(8, 2.6 * (n + 1)), sharex=True)
+    for k in range(n):
+        ax = axes[k]
+        ax.plot(t, x.values[:, k], "k--", lw=1, label=f"plant {x.names[k]}")
+        for obs in system.observers:
+            est = s[f"/observer/{obs.name}/xhat"]
+            if k < est.values.shape[1]:
+                ax.plot(t, est.values[:, k], color=LAW_COLOURS.get(obs.name), lw=1.2,
+                        label=_label(obs))
+        ax.set_ylabel(f"x^{k + 1}")
+        ax.legend(fontsize=8, loc="best")
+        ax.grid(alpha=0.3)
+    ax = axes[n]
+    for obs in system.observers:
+        r = s.get(f"/observer/{obs.name}/r")
+        if r is not None:
+            ax.plot(t, r.values[:, 0], color=LAW_COLOURS.get(obs.name), label=_label(obs))
+    ax.set_ylabel("r")
+    ax.set_xlabel("t [s]")
+    ax.legend(fontsize=8, loc="best")
+    ax.grid(alpha=0.3)
+    axes[0].set_title(title)
+    _save(fig, path)
+
+
+def fig1(result, path) -> None:
+    """Fig. 1: x^ and r with law (6) (blue) and the dead-zone law (4) (red), no noise."""
+    _estimates_and_gain(result, path, "Sanfelice & Praly Fig. 1: law (6) vs dead-zone law (4)")
+
+
+def fig2(result, path) -> None:
+    """Fig. 2: as Fig. 1 with bounded measurement noise."""
+    _estimates_and_gain(result, path, "Sanfelice & Praly Fig. 2: with measurement noise")
+
+
+def fig3(result, path) -> None:
+    """Fig. 3 for one run (one p2): x^1, x^2, r of law (6) on the zero plant solution.
+
+    The three values of p2 together: :func:`fig3_compare` (``experiments/aggregate.py``).
+    """
+    _estimates_and_gain(result, path, "Sanfelice & Praly Fig. 3: oscillation of law (6)")
+
+
+def fig3_compare(runs: Sequence[tuple[str, dict[str, np.ndarray]]], path,
+                 observer: str = "sign_indefinite") -> None:
+    """Fig. 3: x^1, x^2, r of several runs (label, recording as from ``read_recording``)."""
+    colours = ["tab:blue", "tab:red", "tab:green", "tab:orange", "tab:purple"]
+    fig, axes = plt.subplots(3, 1, figsize=(8, 8), sharex=True)
+    for k, (label, rec) in enumerate(runs):
+        t = rec["sim_time"]
+        xh = rec[f"/observer/{observer}/xhat"]
+        r = rec[f"/observer/{observer}/r"]
+        c = colours[k % len(colours)]
+        axes[0].plot(t, xh[:, 0], color=c, lw=1, label=label)
+        axes[1].plot(t, xh[:, 1], color=c, lw=1, label=label)
+        axes[2].plot(t, r[:, 0], color=c, lw=1, label=label)
+    for ax, name in zip(axes, ["x^1", "x^2", "r"], strict=True):
+        ax.set_ylabel(name)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8, loc="upper right")
+    axes[0].set_title("Sanfelice & Praly Fig. 3: law (6), p1 = 4/3, nu1 = 3, zero plant solution")
+    axes[2].set_xlabel("t [s]")
+    _save(fig, path)
+
+
+def fig4(result, path) -> None:
+    """Fig. 4: (a) x^1 vs x^2 and filtered; (b) x^1, x^1f; (c) x^2, x^2f (green/black)."""
+    t = result.trajectory.t
+    s = _series(result)
+    obs = result.experiment.system.observers[0]
+    xh = s[f"/observer/{obs.name}/xhat"].values
+    xf = s[f"/observer/{obs.name}/xhat_f"].values
+    fig = plt.figure(figsize=(11, 7))
+    ax = fig.add_subplot(1, 2, 1)
+    ax.plot(xh[:, 0], xh[:, 1], color="tab:green", lw=0.8, label=f"x^ ({_label(obs)})")
+    ax.plot(xf[:, 0], xf[:, 1], color="k", lw=0.8, label="x^_f (notch filter T(s))")
+    ax.set_xlabel("x^1")
+    ax.set_ylabel("x^2")
+    ax.set_title("(a) components of x^")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    for k, pos in ((0, 2), (1, 4)):
+        ax = fig.add_subplot(2, 2, pos)
+        ax.plot(t, xh[:, k], color="tab:green", lw=1, label=f"x^{k + 1}")
+        ax.plot(t, xf[:, k], color="k", lw=1, label=f"x^{k + 1}f (notch)")
+        ax.set_ylabel(f"x^{k + 1}")
+        ax.set_title(f"({'bc'[k]}) x^{k + 1} and x^{k + 1}f")
+        ax.legend(fontsize=8, loc="upper right")
+        ax.grid(alpha=0.3)
+    ax.set_xlabel("t [s]")
+    fig.suptitle("Sanfelice & Praly Fig. 4: notch filter on the estimates")
+    _save(fig, path)
+
+
+def fig5(result, path, zoom: float = 10.0) -> None:
+    """Fig. 5: (a) y^_i and <y^>; (b) x^_{i,2} and <x^2> (last ``zoom`` s); (c) single
+    observer (green) against the average (black), with the single observer's notch output.
+    """
+    from hgo.observers.collection import collection_params
+
+    t = result.trajectory.t
+    s = _series(result)
+    system = result.experiment.system
+    coll = next(o for o in system.observers if o.f.__module__ == "hgo.observers.collection")
+    single = [o for o in system.observers if o is not coll]
+    N = collection_params(coll)["N"]
+    zm = t >= t[-1] - zoom
+    avg = s[f"/observer/{coll.name}/xhat"].values
+    fig, axes = plt.subplots(2, 2, figsize=(12, 7))
+    for k, ax in enumerate(axes[0]):
+        for i in range(N):
+            v = s[f"/observer/{coll.name}/copy{i + 1}/xhat"].values[:, k]
+            ax.plot(t[zm], v[zm], color=COPY_COLOURS[i % len(COPY_COLOURS)], lw=1,
+                    label=f"copy {i + 1}: x^_{{{i + 1},{k + 1}}}")
+        ax.plot(t[zm], avg[zm, k], "k", lw=2, label=f"<x^{k + 1}> (average)")
+        ax.set_title(f"({'ab'[k]}) {'outputs y^_i' if k == 0 else 'components x^_i,2'}"
+                     f", last {zoom:g} s")
+        ax.set_xlabel("t [s]")
+        ax.legend(fontsize=7, loc="upper right")
+        ax.grid(alpha=0.3)
+    for k, ax in enumerate(axes[1]):
+        for obs in single:
+            ax.plot(t, s[f"/observer/{obs.name}/xhat"].values[:, k], color="tab:green", lw=1,
+                    label=f"x^{k + 1} ({_label(obs)})")
+            f = s.get(f"/observer/{obs.name}/xhat_f")
+            if f is not None:
+                ax.plot(t, f.values[:, k], color="tab:gray", lw=1,
+                        label=f"x^{k + 1}f (notch on {obs.name})")
+        ax.plot(t, avg[:, k], "k", lw=1.2, label=f"<x^{k + 1}> ({N} copies)")
+        ax.set_title(f"(c) x^{k + 1}: single observer vs average")
+        ax.set_xlabel("t [s]")
+        ax.legend(fontsize=7, loc="upper right")
+        ax.grid(alpha=0.3)
+    fig.suptitle("Sanfelice & Praly Fig. 5: collection (21) and its average")
+    _save(fig, path)
