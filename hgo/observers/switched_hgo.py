@@ -149,8 +149,8 @@ def injection_matrix(alpha: Sequence[float], eps: float,
 def spectral_radius(alphas: Sequence[Sequence[float]], epss: Sequence[float],
                     model: Sequence[float] | None = None) -> float:
     """Largest |eigenvalue| of the injection matrix over all gains (bounds the RK4 step)."""
-    return float(max(np.max(np.abs(np.linalg.eigvals(injection_matrix(a, e, model)))))
-                 for a, e in zip(alphas, epss, strict=True))
+    return max(float(np.max(np.abs(np.linalg.eigvals(injection_matrix(a, e, model)))))
+               for a, e in zip(alphas, epss, strict=True))
 
 
 def _check(cond: bool, message: str) -> None:

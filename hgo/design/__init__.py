@@ -1,0 +1,1 @@
+"""Design helpers: gain and parameter choices derived from the papers' design rules."""
