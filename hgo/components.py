@@ -14,7 +14,8 @@ Function signatures (arrays are float64, outputs are written in place):
   ``update(t, z, d, y, u, p)`` — discrete logic (gain switches, timers, saturation),
   applied between integration steps, may modify z and d;
   ``estimate(t, z, d, p, xhat)`` — the estimate of the plant states listed in
-  ``estimated_states``.
+  ``estimated_states``; optional ``stiffness(t, z, d, p) -> float`` — the spectral radius
+  of the active dynamics (bounds the RK4 step; default: the constant ``spectral_radius``).
 * Controller ``u(t, xhat, y, p, u)`` — input computed from one observer's estimate.
 
 Why discrete updates between steps: hybrid logic (noise samples, gain switches,
@@ -73,6 +74,10 @@ class Observer:
     estimate: object
     update: object = no_update
     spectral_radius: float = 0.0  # largest |eigenvalue| of the stiffest linear part
+    # optional ``stiffness(t, z, d, p) -> float``: the spectral radius *now* (e.g. of the
+    # active gain of a switched observer); when given, RK4 caps each substep with it
+    # instead of the constant ``spectral_radius`` (which must then bound every mode)
+    stiffness: object = None
     # extra names -> state columns, for logging (e.g. {"r": [2]})
     signals: dict[str, list[int]] = field(default_factory=dict)
     # theoretical bounds on metrics, quantity -> value (e.g. Sanfelice & Praly (11):

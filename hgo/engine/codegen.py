@@ -22,6 +22,7 @@ import tempfile
 from pathlib import Path
 from types import ModuleType
 
+from hgo.engine.jit import borrow_function, view_function
 from hgo.engine.system import System
 
 _TEMPLATE = Path(__file__).with_name("kernel_template.py")
@@ -55,13 +56,16 @@ def _functions(system: System) -> tuple[dict[str, object], dict]:
             (add("c_obs_f", o.f), add("c_obs_update", o.update), add("c_obs_est", o.estimate))
             for o in system.observers
         ],
+        "stiff": [None if getattr(o, "stiffness", None) is None
+                  else add("c_obs_stiff", o.stiffness) for o in system.observers],
         "ctrl": None if system.controller is None else add("c_ctrl_u", system.controller.u),
     }
     return named, calls
 
 
-def _rng(a: int, b: int) -> str:
-    return f"{a}:{b}"
+def _v(arr: str, a: int, b: int) -> str:
+    """A borrowed view ``arr[a:b]`` (see :mod:`hgo.engine.jit`)."""
+    return f"view({arr}, {a}, {b})"
 
 
 def _header(system: System, names: dict) -> str:
@@ -69,6 +73,11 @@ def _header(system: System, names: dict) -> str:
     zs, ds, ps, xs = system.z_slices, system.d_slices, system.p_slices, system.xh_slices
     ctrl_obs = system.controlled_observer()
     n_xc = 0 if ctrl_obs is None else xs[ctrl_obs][1] - xs[ctrl_obs][0]
+    y, u = _v("w", 0, ny), _v("w", ny, ny + nu)
+
+    def obs_args(k: int) -> tuple[str, str, str]:
+        return _v("z", *zs[k + 1]), _v("d", *ds[k]), _v("P", *ps[k + 1])
+
     lines = [
         "import math",
         "import numpy as np",
@@ -85,36 +94,59 @@ def _header(system: System, names: dict) -> str:
         "@jit",
         "def _signals(t, z, d, m, P, w):",
         '    """Measured outputs y = h(x) + m and the input u, into the work vector w."""',
-        f"    y = w[0:{ny}]",
-        f"    {names['plant_h']}(t, z[0:{nx}], P[{_rng(*ps[0])}], y)",
+        f"    {names['plant_h']}(t, {_v('z', 0, nx)}, {_v('P', *ps[0])}, {y})",
         f"    for i in range({ny}):",
-        "        y[i] += m[i]",
+        "        w[i] += m[i]",
     ]
     if ctrl_obs is not None:
         k = ctrl_obs
+        zk, dk, pk = obs_args(k)
+        xc = _v("w", ny + nu, ny + nu + n_xc)
         lines += [
-            f"    xc = w[{ny + nu}:{ny + nu + n_xc}]",
-            f"    {names['obs'][k][2]}(t, z[{_rng(*zs[k + 1])}], d[{_rng(*ds[k])}], "
-            f"P[{_rng(*ps[k + 1])}], xc)",
-            f"    {names['ctrl']}(t, xc, y, P[{_rng(*ps[-1])}], w[{ny}:{ny + nu}])",
+            f"    {names['obs'][k][2]}(t, {zk}, {dk}, {pk}, {xc})",
+            f"    {names['ctrl']}(t, {xc}, {y}, {_v('P', *ps[-1])}, {u})",
         ]
-    lines += ["", "", "@jit", "def system_rhs(t, z, d, m, P, w, dz):", "    _signals(t, z, d, m, P, w)",
-              f"    y = w[0:{ny}]", f"    u = w[{ny}:{ny + nu}]",
-              f"    {names['plant_f']}(t, z[0:{nx}], u, P[{_rng(*ps[0])}], dz[0:{nx}])"]
+    lines += ["", "", "@jit", "def system_rhs(t, z, d, m, P, w, dz):",
+              "    _signals(t, z, d, m, P, w)",
+              f"    {names['plant_f']}(t, {_v('z', 0, nx)}, {u}, {_v('P', *ps[0])}, "
+              f"{_v('dz', 0, nx)})"]
     for k, (f, _, _) in enumerate(names["obs"]):
-        zk, dk, pk = _rng(*zs[k + 1]), _rng(*ds[k]), _rng(*ps[k + 1])
-        lines.append(f"    {f}(t, z[{zk}], d[{dk}], y, u, P[{pk}], dz[{zk}])")
-    lines += ["", "", "@jit", "def system_update(t, z, d, m, P, w):", "    _signals(t, z, d, m, P, w)",
-              f"    y = w[0:{ny}]", f"    u = w[{ny}:{ny + nu}]"]
+        zk, dk, pk = obs_args(k)
+        lines.append(f"    {f}(t, {zk}, {dk}, {y}, {u}, {pk}, {_v('dz', *zs[k + 1])})")
+    lines += ["", "", "@jit", "def system_update(t, z, d, m, P, w):",
+              "    _signals(t, z, d, m, P, w)"]
     for k, (_, upd, _) in enumerate(names["obs"]):
-        zk, dk, pk = _rng(*zs[k + 1]), _rng(*ds[k]), _rng(*ps[k + 1])
-        lines.append(f"    {upd}(t, z[{zk}], d[{dk}], y, u, P[{pk}])")
+        zk, dk, pk = obs_args(k)
+        lines.append(f"    {upd}(t, {zk}, {dk}, {y}, {u}, {pk})")
     lines += ["", "", "@jit", "def system_outputs(t, z, d, m, P, w, y, u, xh):",
-              "    _signals(t, z, d, m, P, w)", f"    y[:] = w[0:{ny}]", f"    u[:] = w[{ny}:{ny + nu}]"]
+              "    _signals(t, z, d, m, P, w)",
+              f"    for i in range({ny}):", "        y[i] = w[i]",
+              f"    for i in range({nu}):", f"        u[i] = w[{ny} + i]"]
     for k, (_, _, est) in enumerate(names["obs"]):
-        zk, dk, pk, xk = _rng(*zs[k + 1]), _rng(*ds[k]), _rng(*ps[k + 1]), _rng(*xs[k])
-        lines.append(f"    {est}(t, z[{zk}], d[{dk}], P[{pk}], xh[{xk}])")
+        zk, dk, pk = obs_args(k)
+        lines.append(f"    {est}(t, {zk}, {dk}, {pk}, {_v('xh', *xs[k])})")
+    lines += ["", "", "@jit", "def system_stiffness(t, z, d, P):",
+              '    """Largest spectral radius declared *now* by components with a hook."""',
+              "    rho = 0.0"]
+    for k, fn in enumerate(names["stiff"]):
+        if fn is not None:
+            zk, dk, pk = obs_args(k)
+            lines.append(f"    rho = max(rho, {fn}(t, {zk}, {dk}, {pk}))")
+    lines.append("    return rho")
     return "\n".join(lines) + "\n\n"
+
+
+def _sections() -> dict[str, str]:
+    """The template cut at its ``# --- section: <name> ---`` markers."""
+    parts: dict[str, str] = {}
+    name = "preamble"
+    for line in _TEMPLATE.read_text().splitlines(keepends=True):
+        if line.startswith("# --- section: "):
+            name = line.split(":", 1)[1].strip(" -\n")
+            parts[name] = ""
+            continue
+        parts[name] = parts.get(name, "") + line
+    return parts
 
 
 def _identity(fn: object) -> str:
@@ -127,12 +159,17 @@ def _identity(fn: object) -> str:
     return f"# {getattr(fn, '__module__', '?')}.{getattr(fn, '__qualname__', '?')} {digest}"
 
 
-def kernel_source(system: System) -> tuple[str, dict[str, object]]:
-    """The generated module text and the functions to inject into it."""
+def kernel_source(system: System, method: str = "dopri5") -> tuple[str, dict[str, object]]:
+    """The generated module text (with the integrator ``method`` only) and its functions."""
     functions, calls = _functions(system)
+    sections = _sections()
+    if method not in sections or method in ("preamble", "common"):
+        raise ValueError(f"solver.method: '{method}' has no integrator in the kernel template")
     ids = "\n".join(f"{_identity(fn)} -> {name}" for name, fn in functions.items())
     text = ("# Generated by hgo.engine.codegen; do not edit.\n" + ids + "\n"
-            + _header(system, calls) + _TEMPLATE.read_text())
+            + f"# integrator: {method}\n" + _header(system, calls)
+            + "# --- common ---\n" + sections["common"]
+            + f"# --- {method} ---\n" + sections[method])
     return text, functions
 
 
@@ -147,15 +184,19 @@ def _write_once(text: str) -> Path:
     return path
 
 
-def load_kernel(system: System, compiled: bool = True) -> ModuleType:
-    """Write (once) and import the kernel module of ``system``.
+def load_kernel(system: System, compiled: bool = True, method: str = "dopri5") -> ModuleType:
+    """Write (once) and import the kernel module of ``system`` with integrator ``method``.
 
     ``compiled=False`` gives the pure-Python module (same code, ``jit`` = identity).
     """
-    text, functions = kernel_source(system)
+    key = _layout_key(system, method, compiled)
+    if key in _LOADED:  # no source hashing on every run of a sweep
+        return _LOADED[key]
+    text, functions = kernel_source(system, method)
     path = _write_once(text)
     name = path.stem + ("" if compiled else "_py")
     if name in sys.modules:
+        _LOADED[key] = sys.modules[name]
         return sys.modules[name]
     spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
@@ -164,16 +205,37 @@ def load_kernel(system: System, compiled: bool = True) -> ModuleType:
     module.__dict__.update({k: jit(fn) for k, fn in functions.items()})
     sys.modules[name] = module
     spec.loader.exec_module(module)
+    _LOADED[key] = module
     return module
+
+
+_LOADED: dict[tuple, ModuleType] = {}
+
+
+def _layout_key(system: System, method: str, compiled: bool) -> tuple:
+    """What the generated text depends on: the component functions (by identity) and the
+    layout, not the parameter values."""
+    functions, _ = _functions(system)
+    plant = system.plant
+    layout = (plant.nx, len(plant.output_names), len(plant.input_names),
+              tuple(system.z_slices), tuple(system.d_slices), tuple(system.p_slices),
+              tuple(system.xh_slices), tuple(system.estimate_map().tolist()),
+              tuple(system.yhat_columns().tolist()), system.controlled_observer())
+    return (method, compiled, tuple(functions.items()), layout)
 
 
 def _decorators(compiled: bool) -> dict[str, object]:
     if not compiled:
-        return {"jit": lambda fn: fn, "pjit": lambda fn: fn, "prange": range}
+        return {"jit": lambda fn: fn, "pjit": lambda fn: fn, "prange": range,
+                "view": view_function(False), "borrow": borrow_function(False)}
     import numba
 
+    # error_model="numpy": a division by zero gives inf/nan (caught as status 1) instead of
+    # raising, and drops a branch from every division of the hot loop.
     return {
-        "jit": numba.njit(cache=True),
-        "pjit": numba.njit(cache=True, parallel=True),
+        "jit": numba.njit(cache=True, error_model="numpy"),
+        "pjit": numba.njit(cache=True, parallel=True, error_model="numpy"),
         "prange": numba.prange,
+        "view": view_function(True),
+        "borrow": borrow_function(True),
     }

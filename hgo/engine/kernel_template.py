@@ -1,36 +1,36 @@
 """Integrators of the composed system; this file is *source text* for generated kernels.
 
 :mod:`hgo.engine.codegen` prepends a header that defines ``jit``, ``pjit``, ``prange``,
-the layout constants and the composed functions ``system_rhs``, ``system_update`` and
-``system_outputs``, then compiles the result with numba (or runs it as plain Python
-when a user component cannot be compiled). It is never imported on its own.
+``view``, the layout constants and the composed functions ``system_rhs``,
+``system_update``, ``system_outputs`` and ``system_stiffness``, then appends the section
+``common`` and the section of the one integrator the run asks for (``rk4`` or
+``dopri5``): only that integrator is compiled. The result is compiled with numba (or run
+as plain Python when a user component cannot be compiled). Never imported on its own.
 
-Time handling (hybrid systems): the horizon is cut at every noise sample instant
-k*noise_dt and every output instant k*dt_out; no step straddles one of them. Inside a
-segment, ``method`` 0 is classical RK4 with equal substeps of at most ``h_max``, method 1
-is Dormand–Prince 5(4) with step control (rtol, atol) and steps clipped to the segment.
-Discrete logic (``system_update``: gain switches, timers, saturations) runs after every
-step, so switching instants are step boundaries too.
+Time handling (hybrid systems): no step straddles a noise sample instant k*noise_dt
+(the held noise jumps there). Discrete logic (``system_update``: gain switches, timers,
+saturations) runs after every step, so switching instants are step boundaries too.
+
+* ``rk4``: classical RK4. The horizon is also cut at every output instant k*dt_out, and
+  each segment is covered by equal substeps no longer than the step cap: ``h_max`` and
+  ``stab / rho`` with ``rho`` the spectral radius the components declare *now*
+  (``system_stiffness``, re-evaluated after every substep, so a switch to a stiffer gain
+  shortens the very next substep).
+* ``dopri5``: Dormand–Prince 5(4) with error control (rtol, atol), first-same-as-last
+  (6 evaluations per step) and its 4th-order continuous extension: outputs between the
+  ends of a step are interpolated, so the output grid does not cut the steps (only the
+  noise instants and the horizon do). Outputs that fall on a step end are taken after the
+  step's discrete update (and after the noise sample change when they coincide with one).
 
 Status codes: 0 ok, 1 non-finite state, 2 state beyond ``bound``, 3 step-size underflow.
+The record arrays (Z, D, Y, M, U, XH) are filled only when they have rows (an ensemble
+passes empty ones and keeps only the metric accumulators).
 """
-# ruff: noqa: F821  (names come from the generated header)
+# ruff: noqa: F821, F811  (names come from the generated header; one `integrate` per section)
+# --- section: common ---
 import math
 
 import numpy as np
-
-_DP_C = np.array([0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0, 1.0])
-_DP_A = np.array([
-    [0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
-    [1 / 5, 0.0, 0.0, 0.0, 0.0, 0.0],
-    [3 / 40, 9 / 40, 0.0, 0.0, 0.0, 0.0],
-    [44 / 45, -56 / 15, 32 / 9, 0.0, 0.0, 0.0],
-    [19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729, 0.0, 0.0],
-    [9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656, 0.0],
-    [35 / 384, 0.0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84],
-])
-_DP_B = np.array([35 / 384, 0.0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84, 0.0])
-_DP_E = np.array([71 / 57600, 0.0, -71 / 16695, 71 / 1920, -17253 / 339200, 22 / 525, -1 / 40])
 
 
 @jit
@@ -44,176 +44,376 @@ def _state_status(z, bound):
 
 
 @jit
-def _rk4_step(t, h, z, d, m, P, w, K, zt):
-    n = z.shape[0]
-    system_rhs(t, z, d, m, P, w, K[0])
-    for i in range(n):
-        zt[i] = z[i] + 0.5 * h * K[0, i]
-    system_rhs(t + 0.5 * h, zt, d, m, P, w, K[1])
-    for i in range(n):
-        zt[i] = z[i] + 0.5 * h * K[1, i]
-    system_rhs(t + 0.5 * h, zt, d, m, P, w, K[2])
-    for i in range(n):
-        zt[i] = z[i] + h * K[2, i]
-    system_rhs(t + h, zt, d, m, P, w, K[3])
-    for i in range(n):
-        z[i] += h / 6.0 * (K[0, i] + 2.0 * K[1, i] + 2.0 * K[2, i] + K[3, i])
+def _n_common_work(nz):
+    """Length of the work vector the integrators share: w, y, u, xh, sq, prev, win, m."""
+    return NW + NY + NU + NXH + 2 * (NXH + NOBS) + 1 + NY
 
 
 @jit
-def _dopri5_error(t, h, z, d, m, P, w, K, zt, rtol, atol):
-    """One Dormand–Prince trial step: the 5th-order result in zt, returns the error norm."""
-    n = z.shape[0]
-    system_rhs(t, z, d, m, P, w, K[0])
-    for s in range(1, 7):
-        for i in range(n):
-            acc = 0.0
-            for j in range(s):
-                acc += _DP_A[s, j] * K[j, i]
-            zt[i] = z[i] + h * acc
-        system_rhs(t + _DP_C[s] * h, zt, d, m, P, w, K[s])
-    err = 0.0
-    for i in range(n):
-        e = 0.0
-        for s in range(7):
-            e += _DP_E[s] * K[s, i]
-        sc = atol + rtol * max(abs(z[i]), abs(zt[i]))
-        err += (h * e / sc) ** 2
-    return math.sqrt(err / n)
+def _emit(k, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0, tol,
+          Z, D, Y, M, U, XH):
+    """Output sample k at time t: record it, and add it to the trailing-window integrals.
 
-
-@jit
-def _advance(t, t_next, z, d, m, P, w, K, zt, method, h_max, rtol, atol, bound, h_state):
-    """Integrate from t to t_next (no event inside). Returns (status, t)."""
-    if t_next - t <= 1e-13 * max(1.0, abs(t_next)):
-        return 0, t_next
-    if method == 0:
-        n_sub = max(1, math.ceil((t_next - t) / h_max - 1e-9))
-        h = (t_next - t) / n_sub
-        for s in range(n_sub):
-            _rk4_step(t, h, z, d, m, P, w, K, zt)
-            t = t_next if s == n_sub - 1 else t + h
-            system_update(t, z, d, m, P, w)
-            st = _state_status(z, bound)
-            if st != 0:
-                return st, t
-        return 0, t
-    while t < t_next:
-        h = min(h_state[0], h_max, t_next - t)
-        if h < 1e-14 * max(1.0, abs(t)):
-            return 3, t
-        err = _dopri5_error(t, h, z, d, m, P, w, K, zt, rtol, atol)
-        if err <= 1.0:
-            z[:] = zt
-            clipped = h < h_state[0]
-            t = t_next if t + h >= t_next - 1e-13 * max(1.0, abs(t_next)) else t + h
-            system_update(t, z, d, m, P, w)
-            st = _state_status(z, bound)
-            if st != 0:
-                return st, t
-            fac = 5.0 if err == 0.0 else min(5.0, max(0.2, 0.9 * err ** -0.2))
-            # a step clipped to the segment end must not shrink the controller's proposal
-            h_state[0] = max(h_state[0], h * fac) if clipped else h * fac
-        else:
-            fac = 0.2 if not math.isfinite(err) else max(0.2, 0.9 * err ** -0.2)
-            h_state[0] = h * fac
-    return 0, t
-
-
-@jit
-def _accumulate(xh, z, y, sq, prev, acc, dt, first):
-    """Trapezoid of squared errors over the trailing window (Sanfelice & Praly (11)-(12))."""
-    for j in range(NXH):
-        if EST_MAP[j] >= 0:
-            sq[j] = (xh[j] - z[EST_MAP[j]]) ** 2
-        else:
-            sq[j] = 0.0
-    for k in range(NOBS):
-        c = YHAT_COL[k]
-        sq[NXH + k] = (xh[c] - y[0]) ** 2 if c >= 0 else 0.0
-    if not first:
-        for j in range(NXH + NOBS):
-            acc[j] += 0.5 * dt * (sq[j] + prev[j])
-    prev[:] = sq
-
-
-@jit
-def integrate(z, d, P, noise, noise_dt, t_end, dt_out, method, h_max, rtol, atol, bound,
-              t_window, record, Z, D, Y, M, U, XH, acc):
-    """Integrate one run. Returns (status, number of recorded samples, stop time).
-
-    ``acc`` receives the integrals of the squared errors over [t_end - t_window, t_end],
-    and ``acc[-1]`` the length of the window actually integrated.
+    The integrals are trapezoids of squared errors over [t_end - t_window, t_end]
+    (Sanfelice & Praly (11)-(12)); ``win[0]`` tells whether a previous sample is in the
+    window. ``acc[-1]`` accumulates the window length actually integrated.
     """
+    system_outputs(t, z, d, m, P, w, y, u, xh)
+    if Z.shape[0] > 0:
+        for i in range(z.shape[0]):
+            Z[k, i] = z[i]
+        for i in range(d.shape[0]):
+            D[k, i] = d[i]
+        for i in range(NY):
+            Y[k, i] = y[i]
+            M[k, i] = m[i]
+        for i in range(NU):
+            U[k, i] = u[i]
+        for i in range(NXH):
+            XH[k, i] = xh[i]
+    if t >= t_win0 - tol:
+        for j in range(NXH):
+            sq[j] = (xh[j] - z[EST_MAP[j]]) ** 2 if EST_MAP[j] >= 0 else 0.0
+        for k2 in range(NOBS):
+            c = YHAT_COL[k2]
+            sq[NXH + k2] = (xh[c] - y[0]) ** 2 if c >= 0 else 0.0
+        if win[0] > 0.0:
+            for j in range(NXH + NOBS):
+                acc[j] += 0.5 * dt_out * (sq[j] + prev[j])
+            acc[NXH + NOBS] += dt_out
+        for j in range(NXH + NOBS):
+            prev[j] = sq[j]
+        win[0] = 1.0
+
+
+@pjit
+def integrate_ensemble(Z0, D0, PP, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab,
+                       rho_const, bound, t_window, ACC, STATUS, T_STOP):
+    """Integrate many runs in parallel (one per row of Z0, D0, PP, noise), metrics only."""
+    n_members = Z0.shape[0]
+    for i in prange(n_members):
+        empty = np.zeros((0, 1))
+        z = Z0[i].copy()
+        d = D0[i].copy()
+        st, n_rec, t_stop = integrate(z, d, PP[i], noise[i], noise_dt, t_end, dt_out, h_max,
+                                      rtol, atol, stab, rho_const, bound, t_window, empty,
+                                      empty, empty, empty, empty, empty, ACC[i])
+        STATUS[i] = st
+        T_STOP[i] = t_stop
+
+
+# --- section: rk4 ---
+@jit
+def _rk4_step(t, h, z, d, m, P, w, k1, k2, k3, k4, zt):
+    n = z.shape[0]
+    system_rhs(t, z, d, m, P, w, k1)
+    for i in range(n):
+        zt[i] = z[i] + 0.5 * h * k1[i]
+    system_rhs(t + 0.5 * h, zt, d, m, P, w, k2)
+    for i in range(n):
+        zt[i] = z[i] + 0.5 * h * k2[i]
+    system_rhs(t + 0.5 * h, zt, d, m, P, w, k3)
+    for i in range(n):
+        zt[i] = z[i] + h * k3[i]
+    system_rhs(t + h, zt, d, m, P, w, k4)
+    h6 = h / 6.0
+    for i in range(n):
+        z[i] += h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
+
+
+@jit
+def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, rho_const,
+              bound, t_window, Z, D, Y, M, U, XH, acc):
+    """Integrate one run (RK4). Returns (status, number of output samples, stop time)."""
+    work = np.zeros(5 * z.shape[0] + _n_common_work(z.shape[0]))
+    return _integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, stab, rho_const,
+                      bound, t_window, Z, D, Y, M, U, XH, acc, work)
+
+
+@jit
+def _integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, stab, rho_const, bound,
+               t_window, Z, D, Y, M, U, XH, acc, work):
+    z, d, P, noise, acc = borrow(z), borrow(d), borrow(P), borrow(noise), borrow(acc)
+    Z, D, Y, M, U, XH = borrow(Z), borrow(D), borrow(Y), borrow(M), borrow(U), borrow(XH)
     nz = z.shape[0]
-    K = np.zeros((7, nz))
-    zt = np.zeros(nz)
-    w = np.zeros(NW)
-    y = np.zeros(NY)
-    u = np.zeros(NU)
-    xh = np.zeros(NXH)
-    sq = np.zeros(NXH + NOBS)
-    prev = np.zeros(NXH + NOBS)
-    h_state = np.array([h_max])
-    m = noise[0].copy()
-    n_out = int(round(t_end / dt_out)) + 1
+    k1 = view(work, 0, nz)
+    k2 = view(work, nz, 2 * nz)
+    k3 = view(work, 2 * nz, 3 * nz)
+    k4 = view(work, 3 * nz, 4 * nz)
+    zt = view(work, 4 * nz, 5 * nz)
+    o = 5 * nz
+    w = view(work, o, o + NW)
+    y = view(work, o + NW, o + NW + NY)
+    u = view(work, o + NW + NY, o + NW + NY + NU)
+    xh = view(work, o + NW + NY + NU, o + NW + NY + NU + NXH)
+    o += NW + NY + NU + NXH
+    sq = view(work, o, o + NXH + NOBS)
+    prev = view(work, o + NXH + NOBS, o + 2 * (NXH + NOBS))
+    win = view(work, o + 2 * (NXH + NOBS), o + 2 * (NXH + NOBS) + 1)
+    m = view(work, o + 2 * (NXH + NOBS) + 1, o + 2 * (NXH + NOBS) + 1 + NY)
+    for i in range(NY):
+        m[i] = noise[0, i]
     n_noise = noise.shape[0]
+    n_out = int(round(t_end / dt_out)) + 1
+    tol = 1e-12 * max(1.0, t_end)
     t_win0 = t_end - t_window
-    in_window = False
-    acc[:] = 0.0
+    for j in range(acc.shape[0]):
+        acc[j] = 0.0
     t = 0.0
     k_noise = 0
     system_update(t, z, d, m, P, w)
     status = _state_status(z, bound)
-    k_out = 0
-    while True:
-        system_outputs(t, z, d, m, P, w, y, u, xh)
-        if record:
-            Z[k_out] = z
-            D[k_out] = d
-            Y[k_out] = y
-            M[k_out] = m
-            U[k_out] = u
-            XH[k_out] = xh
-        if t >= t_win0 - 1e-12 * max(1.0, t_end):
-            _accumulate(xh, z, y, sq, prev, acc, dt_out, not in_window)
-            if in_window:
-                acc[NXH + NOBS] += dt_out
-            in_window = True
-        k_out += 1
-        if status != 0 or k_out >= n_out:
-            return status, k_out, t
-        t_out = k_out * dt_out
+    _emit(0, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0, tol,
+          Z, D, Y, M, U, XH)
+    if status != 0:
+        return status, 1, t
+    for k_out in range(1, n_out):
+        t_out = t_end if k_out == n_out - 1 else k_out * dt_out
         while True:
             t_noise = (k_noise + 1) * noise_dt
-            if abs(t_noise - t_out) <= 1e-12 * max(1.0, t_out):
+            if abs(t_noise - t_out) <= tol:
                 t_noise = t_out  # coincident events: one boundary, not a sliver of a step
             t_next = min(t_out, t_noise)
-            status, t = _advance(t, t_next, z, d, m, P, w, K, zt, method, h_max, rtol, atol,
-                                 bound, h_state)
-            if status != 0:
-                break
+            while t_next - t > tol:
+                rho = max(rho_const, system_stiffness(t, z, d, P))
+                cap = h_max if rho <= 0.0 else min(h_max, stab / rho)
+                n_sub = max(1, math.ceil((t_next - t) / cap - 1e-9))
+                h = (t_next - t) / n_sub
+                _rk4_step(t, h, z, d, m, P, w, k1, k2, k3, k4, zt)
+                t = t_next if n_sub == 1 else t + h
+                system_update(t, z, d, m, P, w)
+                status = _state_status(z, bound)
+                if status != 0:
+                    return status, k_out, t
+            t = t_next
             if t_noise <= t_out:
                 k_noise += 1
-                m[:] = noise[min(k_noise, n_noise - 1)]
+                idx = min(k_noise, n_noise - 1)
+                for i in range(NY):
+                    m[i] = noise[idx, i]
             if t_noise >= t_out:
                 break
-        if status != 0:
-            return status, k_out, t
-        t = t_out
+        _emit(k_out, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0, tol,
+              Z, D, Y, M, U, XH)
+    return 0, n_out, t
 
 
-@pjit
-def integrate_ensemble(Z0, D0, PP, noise, noise_dt, t_end, dt_out, method, h_max, rtol, atol,
-                       bound, t_window, ACC, STATUS, T_STOP):
-    """Integrate many runs in parallel (one per row of Z0, D0, PP, noise), metrics only."""
-    n_members = Z0.shape[0]
-    empty = np.zeros((0, 1))
-    for i in prange(n_members):
-        z = Z0[i].copy()
-        d = D0[i].copy()
-        st, n_rec, t_stop = integrate(z, d, PP[i], noise[i], noise_dt, t_end, dt_out, method,
-                                      h_max, rtol, atol, bound, t_window, False, empty, empty,
-                                      empty, empty, empty, empty, ACC[i])
-        STATUS[i] = st
-        T_STOP[i] = t_stop
+# --- section: dopri5 ---
+# Dormand–Prince 5(4) tableau (Hairer, Norsett & Wanner), error weights E = b5 - b4 and
+# the dense-output polynomial of scipy's RK45 (P: theta, theta^2, theta^3, theta^4).
+A21 = 1 / 5
+A31, A32 = 3 / 40, 9 / 40
+A41, A42, A43 = 44 / 45, -56 / 15, 32 / 9
+A51, A52, A53, A54 = 19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729
+A61, A62, A63, A64, A65 = 9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656
+B1, B3, B4, B5, B6 = 35 / 384, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84
+C2, C3, C4, C5 = 1 / 5, 3 / 10, 4 / 5, 8 / 9
+E1, E3, E4, E5, E6, E7 = (71 / 57600, -71 / 16695, 71 / 1920, -17253 / 339200, 22 / 525,
+                          -1 / 40)
+P1 = (1.0, -8048581381 / 2820520608, 8663915743 / 2820520608, -12715105075 / 11282082432)
+P3 = (0.0, 131558114200 / 32700410799, -68118460800 / 10900136933,
+      87487479700 / 32700410799)
+P4 = (0.0, -1754552775 / 470086768, 14199869525 / 1410260304, -10690763975 / 1880347072)
+P5 = (0.0, 127303824393 / 49829197408, -318862633887 / 49829197408,
+      701980252875 / 199316789632)
+P6 = (0.0, -282668133 / 205662961, 2019193451 / 616988883, -1453857185 / 822651844)
+P7 = (0.0, 40617522 / 29380423, -110615467 / 29380423, 69997945 / 29380423)
+
+
+@jit
+def _poly(c, th):
+    return th * (c[0] + th * (c[1] + th * (c[2] + th * c[3])))
+
+
+@jit
+def _dopri5_trial(t, h, z, d, m, P, w, k1, k2, k3, k4, k5, k6, k7, zt, rtol, atol):
+    """One trial step from (t, z) with k1 = f(t, z): 5th-order result in zt, k7 = f(zt).
+
+    Returns the RMS error norm (<= 1: accept).
+    """
+    n = z.shape[0]
+    for i in range(n):
+        zt[i] = z[i] + h * A21 * k1[i]
+    system_rhs(t + C2 * h, zt, d, m, P, w, k2)
+    for i in range(n):
+        zt[i] = z[i] + h * (A31 * k1[i] + A32 * k2[i])
+    system_rhs(t + C3 * h, zt, d, m, P, w, k3)
+    for i in range(n):
+        zt[i] = z[i] + h * (A41 * k1[i] + A42 * k2[i] + A43 * k3[i])
+    system_rhs(t + C4 * h, zt, d, m, P, w, k4)
+    for i in range(n):
+        zt[i] = z[i] + h * (A51 * k1[i] + A52 * k2[i] + A53 * k3[i] + A54 * k4[i])
+    system_rhs(t + C5 * h, zt, d, m, P, w, k5)
+    for i in range(n):
+        zt[i] = z[i] + h * (A61 * k1[i] + A62 * k2[i] + A63 * k3[i] + A64 * k4[i]
+                            + A65 * k5[i])
+    system_rhs(t + h, zt, d, m, P, w, k6)
+    for i in range(n):
+        zt[i] = z[i] + h * (B1 * k1[i] + B3 * k3[i] + B4 * k4[i] + B5 * k5[i] + B6 * k6[i])
+    system_rhs(t + h, zt, d, m, P, w, k7)
+    err = 0.0
+    for i in range(n):
+        e = h * (E1 * k1[i] + E3 * k3[i] + E4 * k4[i] + E5 * k5[i] + E6 * k6[i] + E7 * k7[i])
+        sc = atol + rtol * max(abs(z[i]), abs(zt[i]))
+        err += (e / sc) ** 2
+    return math.sqrt(err / n)
+
+
+@jit
+def _dense(th, h, z, k1, k3, k4, k5, k6, k7, zo):
+    """The continuous extension at t + th*h (0 < th < 1) into zo."""
+    b1 = _poly(P1, th)
+    b3 = _poly(P3, th)
+    b4 = _poly(P4, th)
+    b5 = _poly(P5, th)
+    b6 = _poly(P6, th)
+    b7 = _poly(P7, th)
+    for i in range(z.shape[0]):
+        zo[i] = z[i] + h * (b1 * k1[i] + b3 * k3[i] + b4 * k4[i] + b5 * k5[i] + b6 * k6[i]
+                            + b7 * k7[i])
+
+
+@jit
+def _rms(a, z, rtol, atol):
+    s = 0.0
+    for i in range(a.shape[0]):
+        s += (a[i] / (atol + rtol * abs(z[i]))) ** 2
+    return math.sqrt(s / a.shape[0])
+
+
+@jit
+def _initial_step(t, z, d, m, P, w, k1, k2, zt, rtol, atol, h_max):
+    """Hairer's starting step (Solving ODEs I, II.4) from f0 = k1; uses 1 evaluation."""
+    d0 = _rms(z, z, rtol, atol)
+    d1 = _rms(k1, z, rtol, atol)
+    h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
+    h0 = min(h0, h_max)
+    for i in range(z.shape[0]):
+        zt[i] = z[i] + h0 * k1[i]
+    system_rhs(t + h0, zt, d, m, P, w, k2)
+    for i in range(z.shape[0]):
+        zt[i] = k2[i] - k1[i]
+    d2 = _rms(zt, z, rtol, atol) / h0
+    dm = max(d1, d2)
+    h1 = max(1e-6, h0 * 1e-3) if dm <= 1e-15 else (0.01 / dm) ** 0.2
+    return min(100.0 * h0, h1, h_max)
+
+
+@jit
+def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, rho_const,
+              bound, t_window, Z, D, Y, M, U, XH, acc):
+    """Integrate one run (DOPRI5). Returns (status, number of output samples, stop time)."""
+    work = np.zeros(9 * z.shape[0] + d.shape[0] + _n_common_work(z.shape[0]))
+    return _integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, bound,
+                      t_window, Z, D, Y, M, U, XH, acc, work)
+
+
+@jit
+def _integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, bound, t_window,
+               Z, D, Y, M, U, XH, acc, work):
+    z, d, P, noise, acc = borrow(z), borrow(d), borrow(P), borrow(noise), borrow(acc)
+    Z, D, Y, M, U, XH = borrow(Z), borrow(D), borrow(Y), borrow(M), borrow(U), borrow(XH)
+    nz = z.shape[0]
+    nd = d.shape[0]
+    k1 = view(work, 0, nz)
+    k2 = view(work, nz, 2 * nz)
+    k3 = view(work, 2 * nz, 3 * nz)
+    k4 = view(work, 3 * nz, 4 * nz)
+    k5 = view(work, 4 * nz, 5 * nz)
+    k6 = view(work, 5 * nz, 6 * nz)
+    k7 = view(work, 6 * nz, 7 * nz)
+    zt = view(work, 7 * nz, 8 * nz)
+    zo = view(work, 8 * nz, 9 * nz)
+    dsave = view(work, 9 * nz, 9 * nz + nd)
+    o = 9 * nz + nd
+    w = view(work, o, o + NW)
+    y = view(work, o + NW, o + NW + NY)
+    u = view(work, o + NW + NY, o + NW + NY + NU)
+    xh = view(work, o + NW + NY + NU, o + NW + NY + NU + NXH)
+    o += NW + NY + NU + NXH
+    sq = view(work, o, o + NXH + NOBS)
+    prev = view(work, o + NXH + NOBS, o + 2 * (NXH + NOBS))
+    win = view(work, o + 2 * (NXH + NOBS), o + 2 * (NXH + NOBS) + 1)
+    m = view(work, o + 2 * (NXH + NOBS) + 1, o + 2 * (NXH + NOBS) + 1 + NY)
+    for i in range(NY):
+        m[i] = noise[0, i]
+    n_noise = noise.shape[0]
+    n_out = int(round(t_end / dt_out)) + 1
+    tol = 1e-12 * max(1.0, t_end)
+    t_win0 = t_end - t_window
+    for j in range(acc.shape[0]):
+        acc[j] = 0.0
+    t = 0.0
+    k_noise = 0
+    system_update(t, z, d, m, P, w)
+    status = _state_status(z, bound)
+    _emit(0, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0, tol,
+          Z, D, Y, M, U, XH)
+    if status != 0:
+        return status, 1, t
+    k_out = 1
+    system_rhs(t, z, d, m, P, w, k1)
+    h = _initial_step(t, z, d, m, P, w, k1, k2, zt, rtol, atol, h_max)
+    fsal = True  # k1 holds f(t, z) for the current noise sample and discrete state
+    while k_out < n_out:
+        t_seg = (k_noise + 1) * noise_dt
+        if t_seg >= t_end - tol:
+            t_seg = t_end
+        while True:  # steps inside [t, t_seg]
+            if not fsal:
+                system_rhs(t, z, d, m, P, w, k1)
+                fsal = True
+            hh = min(h, h_max)
+            last = t + hh >= t_seg - tol
+            if last:
+                hh = t_seg - t
+            if hh < 1e-14 * max(1.0, abs(t)):
+                return 3, k_out, t
+            err = _dopri5_trial(t, hh, z, d, m, P, w, k1, k2, k3, k4, k5, k6, k7, zt,
+                                rtol, atol)
+            if not err <= 1.0:  # rejected (or non-finite)
+                h = hh * (0.2 if not math.isfinite(err) else max(0.2, 0.9 * err ** -0.2))
+                continue
+            t_new = t_seg if last else t + hh
+            while k_out < n_out and k_out * dt_out < t_new - tol:  # outputs inside the step
+                t_o = k_out * dt_out
+                _dense((t_o - t) / hh, hh, z, k1, k3, k4, k5, k6, k7, zo)
+                _emit(k_out, t_o, zo, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out,
+                      t_win0, tol, Z, D, Y, M, U, XH)
+                k_out += 1
+            for i in range(nz):
+                z[i] = zt[i]
+                k1[i] = k7[i]
+            for i in range(nd):
+                dsave[i] = d[i]
+            t = t_new
+            system_update(t, z, d, m, P, w)
+            for i in range(nz):  # the discrete update changed z or d: k7 is stale
+                if z[i] != zt[i]:
+                    fsal = False
+            for i in range(nd):
+                if d[i] != dsave[i]:
+                    fsal = False
+            status = _state_status(z, bound)
+            if status != 0:
+                return status, k_out, t
+            fac = 10.0 if err == 0.0 else min(10.0, max(0.2, 0.9 * err ** -0.2))
+            # a step shortened to reach the segment end must not shrink the next proposal
+            h = max(h, hh * fac) if last else hh * fac
+            if last:
+                break
+            while k_out < n_out and k_out * dt_out <= t + tol:  # an output on the step end
+                _emit(k_out, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0,
+                      tol, Z, D, Y, M, U, XH)
+                k_out += 1
+        if t_seg < t_end:  # the next noise sample holds from here on
+            k_noise += 1
+            idx = min(k_noise, n_noise - 1)
+            for i in range(NY):
+                m[i] = noise[idx, i]
+            fsal = False
+        while k_out < n_out and k_out * dt_out <= t + tol:
+            _emit(k_out, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0,
+                  tol, Z, D, Y, M, U, XH)
+            k_out += 1
+    return 0, n_out, t

@@ -100,17 +100,16 @@ class Trajectory:
         return STATUS[self.status]
 
 
-def _kernel(system: System):
-    """The compiled kernel module, or the pure-Python one with a warning."""
+def _kernel(system: System, method: str):
+    """The compiled kernel module, or the pure-Python one (numba missing)."""
     try:
-        module = load_kernel(system, compiled=True)
-        return module, True
+        return load_kernel(system, compiled=True, method=method)
     except ImportError:  # numba missing
-        return load_kernel(system, compiled=False), False
+        return load_kernel(system, compiled=False, method=method)
 
 
-def _call(system: System, fname: str, *args):
-    module, _ = _kernel(system)
+def _call(system: System, method: str, fname: str, *args):
+    module = _kernel(system, method)
     try:
         return getattr(module, fname)(*args)
     except Exception as err:  # numba typing/lowering errors of user components
@@ -119,7 +118,7 @@ def _call(system: System, fname: str, *args):
         first = _reason(str(err))
         warnings.warn(f"hgo: numba could not compile this system ({first}); running on the "
                       "pure-Python path (slow).", RuntimeWarning, stacklevel=3)
-        return getattr(load_kernel(system, compiled=False), fname)(*args)
+        return getattr(load_kernel(system, compiled=False, method=method), fname)(*args)
 
 
 def _reason(message: str) -> str:
@@ -132,9 +131,19 @@ def _reason(message: str) -> str:
 
 
 def _common_args(system: System, solver: SolverSettings, noise: Noise) -> tuple:
-    h_max = solver.effective_h_max(system.spectral_radius())
-    return (float(noise.dt), float(solver.t_end), float(solver.dt_out),
-            METHODS[solver.method], float(h_max), float(solver.rtol), float(solver.atol),
+    """noise_dt, t_end, dt_out, h_max, rtol, atol, stab, rho_const, bound, t_window.
+
+    RK4 caps its substeps at min(h_max, stab / rho) with rho the largest of the constant
+    spectral radii (components without a ``stiffness`` hook) and of the hooks' values now.
+    """
+    rho_const = max([system.plant.spectral_radius]
+                    + [o.spectral_radius for o in system.observers
+                       if getattr(o, "stiffness", None) is None])
+    stab = solver.stability_safety * RK4_STABILITY if solver.method == "rk4" else 0.0
+    if solver.method != "rk4":
+        rho_const = 0.0
+    return (float(noise.dt), float(solver.t_end), float(solver.dt_out), float(solver.h_max),
+            float(solver.rtol), float(solver.atol), float(stab), float(rho_const),
             float(solver.state_bound), float(solver.t_window))
 
 
@@ -142,8 +151,8 @@ def simulate(system: System, solver: SolverSettings, noise: Noise,
              params: np.ndarray | None = None, z0: np.ndarray | None = None) -> Trajectory:
     """Integrate one run and record every signal on the grid ``k * solver.dt_out``."""
     solver.validate()
-    (noise_dt, t_end, dt_out, *rest) = _common_args(system, solver, noise)
-    n_out = int(round(t_end / dt_out)) + 1
+    args = _common_args(system, solver, noise)
+    n_out = int(round(solver.t_end / solver.dt_out)) + 1
     ny, nu = noise.samples.shape[1], len(system.plant.input_names)
     z = (system.z0() if z0 is None else np.asarray(z0, float)).copy()
     d = system.d0()
@@ -151,9 +160,9 @@ def simulate(system: System, solver: SolverSettings, noise: Noise,
     rec = [np.zeros((n_out, k)) for k in (system.nz, system.nd, ny, ny, nu, system.nxh)]
     acc = np.zeros(system.nxh + len(system.observers) + 1)
     status, n_rec, t_stop = _call(
-        system, "integrate", z, d, P, np.ascontiguousarray(noise.samples, float), noise_dt,
-        t_end, dt_out, *rest, True, *rec, acc)
-    t = np.arange(n_rec) * dt_out
+        system, solver.method, "integrate", z, d, P,
+        np.ascontiguousarray(noise.samples, float), *args, *rec, acc)
+    t = np.arange(n_rec) * solver.dt_out
     Z, D, Y, M, U, XH = (a[:n_rec] for a in rec)
     return Trajectory(t, Z, D, Y, M, U, XH, int(status), float(t_stop), acc)
 
@@ -177,7 +186,8 @@ def simulate_ensemble(system: System, solver: SolverSettings, noise: list[Noise]
     status = np.zeros(n, dtype=np.int64)
     t_stop = np.zeros(n)
     args = _common_args(system, solver, members[0])
-    _call(system, "integrate_ensemble", z0, d0, params, samples, *args, acc, status, t_stop)
+    _call(system, solver.method, "integrate_ensemble", z0, d0, params, samples, *args, acc,
+          status, t_stop)
     return {"acc": acc, "status": status, "t_stop": t_stop}
 
 
