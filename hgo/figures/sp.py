@@ -12,10 +12,10 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
-import hgo.figures  # noqa: F401  (selects the Agg backend)
 import matplotlib.pyplot as plt
 import numpy as np
 
+import hgo.figures  # noqa: F401  (selects the Agg backend)
 from hgo.recording import Series
 
 # the paper's colours: Fig. 1 blue/red, Fig. 3 blue/red/green, Figs. 4-5 green/black
