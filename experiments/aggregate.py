@@ -15,7 +15,10 @@ and writes, in the sweep directory (or ``--out``):
 A job without ``metrics.csv`` (it crashed before writing) is skipped and listed; a job whose
 run failed (status ``failed``) keeps its rows (status column) but is left out of the figure,
 and is listed too. Hydra skips ``on_multirun_end`` callbacks when a job fails, which is why
-this is a separate command.
+this is a separate command. When all jobs succeed, the callback
+:class:`AggregateCallback` (set in ``conf/experiment/sp_fig3.yaml`` under ``hydra.callbacks``)
+runs the same aggregation at the end of the multirun; it is importable because
+``experiments/run.py`` puts ``experiments/`` on ``sys.path``.
 
 The three recordings of the sweep open together in the Rerun viewer (each job has its own
 recording id, so they do not merge):
@@ -32,6 +35,7 @@ from pathlib import Path
 
 import pandas as pd
 import yaml
+from hydra.experimental.callback import Callback
 
 ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:  # run from a checkout without installing
@@ -199,6 +203,23 @@ def aggregate(sweep: str | Path, out: str | Path | None = None,
     if rrds:
         print("open together in the Rerun viewer:  rerun " + " ".join(rrds))
     return paths
+
+
+class AggregateCallback(Callback):
+    """Hydra callback: aggregate the sweep directory at ``on_multirun_end``.
+
+    Hydra does not call it when a job fails: run ``experiments/aggregate.py <sweep>`` then.
+    """
+
+    def __init__(self, observer: str = "sign_indefinite") -> None:
+        self.observer = observer
+
+    def on_multirun_end(self, config, **kwargs) -> None:
+        try:
+            aggregate(config.hydra.sweep.dir, observer=self.observer)
+        except Exception as err:  # never turn a finished sweep into a failure
+            print(f"aggregate: failed ({err}); run experiments/aggregate.py "
+                  f"{config.hydra.sweep.dir}", file=sys.stderr)
 
 
 def main(argv: list[str] | None = None) -> int:
