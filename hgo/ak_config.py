@@ -12,7 +12,8 @@ Stored by :func:`register_ak_configs` (called from :func:`hgo.config.register_co
 * ``schema/controller/open_loop``: u = a + b sin(omega t)
   (:func:`hgo.controllers.open_loop.open_loop_controller`);
 * ``schema/postprocess/ak_metrics``: velocity tracking error e2 = x2 - r', transient and
-  late-window metrics, switch log, ultimate bound of ||x - x^|| (:func:`hgo.postprocess.ak.ak_metrics`).
+  late-window metrics, switch log, ultimate bound of ||x - x^||
+  (:func:`hgo.postprocess.ak.ak_metrics`).
 
 Defaults are the paper's Section 4 values where it gives them; the choices it leaves open
 (reference, controller gain, x3(0)) are documented in the factories' modules.

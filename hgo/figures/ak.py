@@ -25,10 +25,10 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-import hgo.figures  # noqa: F401  (selects the Agg backend)
 import matplotlib.pyplot as plt
 import numpy as np
 
+import hgo.figures  # noqa: F401  (selects the Agg backend)
 from hgo.postprocess.ak import TRACKING
 
 OBS_COLOURS = {"switched": "tab:blue", "fixed_eps2": "tab:green", "fixed_eps1": "tab:red"}
