@@ -39,11 +39,17 @@ def test_sp_fig1_run_writes_recording_and_metrics(compose, tmp_path):
     np.testing.assert_allclose(rec["/error/dead_zone"],
                                traj.z[:, 5:7] - traj.z[:, :2], atol=1e-15)
 
-    table = pd.read_csv(tmp_path / "metrics.csv")
-    assert set(table.observer) == {"sign_indefinite", "dead_zone"}
-    assert set(table.quantity) == {"mean_sq_error_x1", "mean_sq_error_x2",
-                                   "mean_sq_output_error"}
-    out = table.set_index(["observer", "quantity"])
+    table = pd.read_csv(tmp_path / "metrics.csv", keep_default_na=False,
+                        na_values=["", "NaN", "nan"])
+    engine_rows = table[table.postprocess.isna()]
+    assert set(engine_rows.observer) == {"sign_indefinite", "dead_zone"}
+    assert set(engine_rows.quantity) == {"mean_sq_error_x1", "mean_sq_error_x2",
+                                         "mean_sq_output_error"}
+    assert len(engine_rows) == 6
+    out = engine_rows.set_index(["observer", "quantity"])
+    # the sp_bounds post-processor fills B_io of (14) for the law-(6) observer only
+    assert out.loc[("sign_indefinite", "mean_sq_error_x1"), "bound"] > 0
+    assert np.isnan(out.loc[("dead_zone", "mean_sq_error_x1"), "bound"])
     row = out.loc[("sign_indefinite", "mean_sq_output_error")]
     assert row.bound == pytest.approx(0.008) and bool(row.holds)
     assert row.ratio == pytest.approx(row.empirical / row.bound)
