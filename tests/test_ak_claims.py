@@ -179,3 +179,47 @@ def test_claim4_with_encoder_noise(request):
         "(25) is a worst case over |v| <= mu; fast held noise averages out, so the "
         "measured minimiser scales like mu^0.4: " + _describe(a))))
     assert ok and abs(a.power_grid.exponent - 0.5) <= 2 * a.power_grid.stderr
+
+
+# --- the trade-off report over a sweep with failed jobs ------------------------------------
+
+
+def test_tradeoff_report_skips_failed_jobs(tmp_path):
+    """experiments/ak_tradeoff.py on a sweep where one job failed and one crashed."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    import pandas as pd
+    import yaml
+
+    from hgo.design.switched_gain import ultimate_bound
+
+    c1, c2 = 0.2, 0.5
+    k = 0
+    for m in (1e-4, 4e-4, 1.6e-3):
+        for e in (0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2):
+            job = tmp_path / f"job{k}"
+            (job / ".hydra").mkdir(parents=True)
+            cfg = {"observer": {"fixed": {"alpha1": [2.0, 1.0], "eps1": e, "eps2": None}},
+                   "controller": {"observer": None}, "noise": {"amplitude": m, "period": 0.2}}
+            (job / ".hydra" / "config.yaml").write_text(yaml.safe_dump(cfg))
+            status = "failed" if k == 3 else "ok"
+            if k != 5:  # job5 crashed before writing metrics.csv
+                pd.DataFrame([{"observer": "fixed", "quantity": "ultimate_bound_err",
+                               "empirical": ultimate_bound(e, m, c1, c2, 2),
+                               "status": status, "t_stop": 1.0, "message": status}]
+                             ).to_csv(job / "metrics.csv", index=False)
+            k += 1
+    script = Path(__file__).resolve().parents[1] / "experiments" / "ak_tradeoff.py"
+    proc = subprocess.run([sys.executable, str(script), str(tmp_path)], capture_output=True,
+                          text=True, check=True)
+    assert "skipped job3: run failed" in proc.stderr
+    assert "skipped job5: no metrics.csv" in proc.stderr
+    md = (tmp_path / "tradeoff.md").read_text()
+    assert "job3" in md and "job5" in md and "c1 = 0.2," in md
+    fit = pd.read_csv(tmp_path / "tradeoff_fit.csv")
+    np.testing.assert_allclose(fit.c1, c1, rtol=1e-6)
+    np.testing.assert_allclose(fit.eps_star_fit, np.sqrt(fit.mu * c2 / c1), rtol=1e-6)
+    assert len(pd.read_csv(tmp_path / "tradeoff_points.csv")) == 19
+    assert (tmp_path / "tradeoff.png").exists()

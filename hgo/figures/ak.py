@@ -57,8 +57,7 @@ def _loop_observer(result):
 def _label(obs) -> str:
     p = obs.p
     if int(p[1]) == 2:
-        return (f"{obs.name}: switched eps1 = {p[8]:g} -> eps2 = {p[9]:g}, "
-                f"T_d = {p[3]:g} s")
+        return f"{obs.name}: eps1 = {p[8]:g} -> eps2 = {p[9]:g} after T_d = {p[3]:g} s"
     return f"{obs.name}: fixed eps = {p[8]:g}"
 
 
@@ -101,13 +100,10 @@ def fig2(result, path) -> None:
     _save(plt.gcf(), path)
 
 
-def _late_start(result) -> float:
-    for _, row in result.metrics.iterrows():
-        if row.get("quantity") == "rms_e2_late":
-            break
-    cfg_window = getattr(result, "late_window", None)
+def _late_start(result, late_window: float = 1.0) -> float:
+    """Start of the steady-state window: the last ``late_window`` s (at most half the run)."""
     t = result.trajectory.t
-    return t[-1] - (cfg_window if cfg_window else min(1.0, t[-1] / 2))
+    return t[-1] - min(late_window, t[-1] / 2)
 
 
 def fig3(result, path) -> None:
@@ -208,7 +204,8 @@ class SweepFigure(Callback):
 def tradeoff_figure(path, eps: np.ndarray, mu: np.ndarray, bound: np.ndarray, r: int,
                     fits: dict[float, tuple[float, float]], eps_star: dict[float, float],
                     power: tuple[float, float, float] | None,
-                    global_fit: tuple[float, float] | None = None) -> None:
+                    global_fit: tuple[float, float] | None = None,
+                    eps_star_grid: dict[float, float] | None = None) -> None:
     """Left: measured bound vs eps per mu, with the fitted (25); right: eps* vs mu."""
     from hgo.design.switched_gain import ultimate_bound
 
@@ -236,6 +233,10 @@ def tradeoff_figure(path, eps: np.ndarray, mu: np.ndarray, bound: np.ndarray, r:
     ms = np.array(sorted(eps_star))
     if ms.size:
         ax2.loglog(ms, [eps_star[m] for m in ms], "ko", label="eps* (fit of (25) per mu)")
+    if eps_star_grid:
+        mg = np.array(sorted(eps_star_grid))
+        ax2.loglog(mg, [eps_star_grid[m] for m in mg], "s", mfc="none", color="tab:blue",
+                   label="eps* (measured minimum on the eps grid)")
     if power is not None and ms.size:
         q, se, pref = power
         ax2.loglog(ms, pref * ms ** q, "k-", label=f"fit: eps* ~ mu^{q:.3f} (+- {se:.3f})")
@@ -360,7 +361,9 @@ def tradeoff_report(sweep: str | Path, out: str | Path | None = None) -> dict:
         tradeoff_figure(paths["png"], pts.eps.to_numpy(), pts.mu.to_numpy(),
                         pts.bound.to_numpy(), r, fits, eps_star,
                         None if pw is None else (pw.exponent, pw.stderr, pw.prefactor),
-                        (g.c1, g.c2))
+                        (g.c1, g.c2),
+                        {p["mu"]: p["eps_star_grid"] for p in analysis.per_mu
+                         if math.isfinite(p["eps_star_grid"])})
     paths["md"].write_text("\n".join(lines) + "\n")
     return {"analysis": analysis, "paths": paths, "skipped": skipped, "points": pts}
 
