@@ -171,6 +171,8 @@ def _figures(cfg: DictConfig, result: RunResult) -> list[Path]:
     """PNG figures of the ``figures`` mapping (name -> ``_target_`` taking the result)."""
     paths = []
     for name, node in (cfg.get("figures") or {}).items():
+        if node is None:  # a preset drops an inherited figure with `figures.<name>: null`
+            continue
         path = result.out_dir / f"{name}.png"
         instantiate(node, _partial_=True)(result, path)
         paths.append(path)
