@@ -227,13 +227,16 @@ def _layout_key(system: System, method: str, compiled: bool) -> tuple:
 def _decorators(compiled: bool) -> dict[str, object]:
     if not compiled:
         return {"jit": lambda fn: fn, "pjit": lambda fn: fn, "prange": range,
-                "view": view_function(False), "borrow": borrow_function(False)}
+                "view": view_function(False), "borrow": borrow_function(False),
+                "ijit": lambda fn: fn}
     import numba
 
     # error_model="numpy": a division by zero gives inf/nan (caught as status 1) instead of
     # raising, and drops a branch from every division of the hot loop.
     return {
         "jit": numba.njit(cache=True, error_model="numpy"),
+        # small helpers called per output sample: inlined by numba itself
+        "ijit": numba.njit(cache=True, error_model="numpy", inline="always"),
         "pjit": numba.njit(cache=True, parallel=True, error_model="numpy"),
         "prange": numba.prange,
         "view": view_function(True),

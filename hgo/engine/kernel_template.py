@@ -49,7 +49,7 @@ def _n_common_work(nz):
     return NW + NY + NU + NXH + 2 * (NXH + NOBS) + 1 + NY
 
 
-@jit
+@ijit
 def _emit(k, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0, tol,
           Z, D, Y, M, U, XH):
     """Output sample k at time t: record it, and add it to the trailing-window integrals.
@@ -220,7 +220,7 @@ P6 = (0.0, -282668133 / 205662961, 2019193451 / 616988883, -1453857185 / 8226518
 P7 = (0.0, 40617522 / 29380423, -110615467 / 29380423, 69997945 / 29380423)
 
 
-@jit
+@ijit
 def _poly(c, th):
     return th * (c[0] + th * (c[1] + th * (c[2] + th * c[3])))
 
@@ -259,7 +259,7 @@ def _dopri5_trial(t, h, z, d, m, P, w, k1, k2, k3, k4, k5, k6, k7, zt, rtol, ato
     return math.sqrt(err / n)
 
 
-@jit
+@ijit
 def _dense(th, h, z, k1, k3, k4, k5, k6, k7, zo):
     """The continuous extension at t + th*h (0 < th < 1) into zo."""
     b1 = _poly(P1, th)

@@ -1,0 +1,370 @@
+"""Benchmark of the hgo engine against solve_ivp and hand-written numba kernels (issue 5).
+
+    python benchmarks/run.py           # full run (~10 min on 2 cores)
+    python benchmarks/run.py --quick   # reduced run (< 60 s after compilation)
+
+Times are medians of >= 3 runs after compilation (CPU-bound; wall clock), ratios are
+taken inside the same run. Prints the tables and ends with one line
+``speedup_vs_solve_ivp: A=<x> B=<y> ensemble=<z>``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import subprocess
+import sys
+import tempfile
+import textwrap
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import baselines as bl  # noqa: E402
+
+from hgo.controllers.open_loop import open_loop_controller  # noqa: E402
+from hgo.engine.simulate import Noise, SolverSettings, no_noise, simulate, simulate_ensemble  # noqa: E402,E501
+from hgo.engine.system import System  # noqa: E402
+from hgo.observers.switched_hgo import switched_hgo  # noqa: E402
+from hgo.observers.triangular import triangular_hgo  # noqa: E402
+from hgo.plants.dc_motor import dc_motor_plant  # noqa: E402
+from hgo.plants.sp_linear import sp_linear_plant  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+RTOL_B, ATOL_B = 1e-8, 1e-10  # problem B tolerances, the same for solve_ivp and hgo
+B_T, B_DT = 200.0, 0.01
+A_T, A_NOISE_DT, A_DT_OUT, A_NOISE = 20.0, 0.0008, 0.004, 0.0016
+A_SWITCH = 1.0
+P2_INDEX = 2 + 3  # params: plant [nu1, nu2], observer [n, law, p1, p2, ...]
+
+
+def median_time(fn, reps: int) -> tuple[float, object]:
+    times, out = [], None
+    for _ in range(reps):
+        t0 = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t0)
+    return float(np.median(times)), out
+
+
+# ---------------------------------------------------------------------- problem B
+def b_system(p2: float = 1.5, e0=(3.0, 3.0)) -> System:
+    plant = sp_linear_plant(nu1=3, nu2=0, x0=(0, 0))
+    obs = triangular_hgo("b", K=[2, 2], xhat0=list(e0), r0=1, law="sign_indefinite",
+                         p1=4 / 3, p2=p2, b=0.28, M=[[3, 0], [0, 0]])
+    return System(plant, [obs])
+
+
+def b_solver(t_end: float = B_T, dt_out: float = B_DT) -> SolverSettings:
+    # h_max only caps DOPRI5 steps (outputs are interpolated): no cap below the horizon
+    return SolverSettings(t_end=t_end, dt_out=dt_out, method="dopri5", h_max=t_end,
+                          rtol=RTOL_B, atol=ATOL_B)
+
+
+def b_errors(tr) -> np.ndarray:
+    """(e1, e2, r) on the grid from an hgo trajectory (x = 0, so e = x^ - x)."""
+    return np.c_[tr.xh[:, 0] - tr.z[:, 0], tr.xh[:, 1] - tr.z[:, 1], tr.z[:, 4]]
+
+
+def ensemble_members(n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    return rng.uniform(0.5, 3.0, n), rng.uniform(-3.0, 3.0, (n, 2))
+
+
+def ensemble_inputs(system: System, p2: np.ndarray, e0: np.ndarray):
+    params = np.tile(system.params(), (len(p2), 1))
+    params[:, P2_INDEX] = p2
+    z0 = np.tile(system.z0(), (len(p2), 1))
+    z0[:, 2:4] = e0
+    return params, z0
+
+
+# ---------------------------------------------------------------------- problem A
+def switched_stiffness(t, z, d, p):
+    """Spectral radius of A - H C for the *active* gain of switched_hgo (chain form):
+    the roots of s^r + a1 s^(r-1) + ... + ar over eps; exact for r = 2, Cauchy's bound
+    1 + max|a_i| otherwise. (Attached here until switched_hgo declares one itself.)"""
+    r = int(p[0])
+    if d[0] < 1.5:
+        eps = p[8]
+        a0 = 10
+    else:
+        eps = p[9]
+        a0 = 10 + r
+    if r == 1:
+        return abs(p[a0]) / eps
+    if r == 2:
+        a1 = p[a0]
+        a2 = p[a0 + 1]
+        disc = a1 * a1 - 4.0 * a2
+        if disc >= 0.0:
+            return (abs(a1) + math.sqrt(disc)) / 2.0 / eps
+        return math.sqrt(abs(a2)) / eps
+    big = 0.0
+    for i in range(r):
+        big = max(big, abs(p[a0 + i]))
+    return (1.0 + big) / eps
+
+
+def a_system() -> System:
+    plant = dc_motor_plant()
+    obs = switched_hgo("hgo", alpha1=(71.0, 70.0), eps1=5e-4, alpha2=(2.0, 1.0), eps2=0.01,
+                       delta=1e12, T_d=A_SWITCH)  # |y - x^1| never leaves: switch at t = 1 s
+    if getattr(obs, "stiffness", None) is None:
+        obs.stiffness = switched_stiffness
+    return System(plant, [obs], open_loop_controller(1.0, 0.5, 1.0))
+
+
+def a_noise(seed: int = 1) -> Noise:
+    n = int(round(A_T / A_NOISE_DT)) + 1
+    samples = np.zeros((n, 2))
+    samples[:, 0] = np.random.default_rng(seed).uniform(-A_NOISE, A_NOISE, n)
+    return Noise(samples, A_NOISE_DT)
+
+
+def a_solver(t_end: float = A_T) -> SolverSettings:
+    return SolverSettings(t_end=t_end, dt_out=A_DT_OUT, method="rk4", h_max=1.0)
+
+
+# ---------------------------------------------------------------------- compile times
+COMPILE_SNIPPET = textwrap.dedent("""
+    import time, sys
+    t0 = time.perf_counter()
+    sys.path.insert(0, {bench!r})
+    import run as b
+    problem = {problem!r}
+    if problem == "B":
+        system, solver, noise = b.b_system(), b.b_solver(), b.no_noise(1)
+    else:
+        system, solver, noise = b.a_system(), b.a_solver(), b.a_noise()
+    t1 = time.perf_counter()
+    b.simulate(system, solver, noise)
+    t2 = time.perf_counter()
+    b.simulate(system, solver, noise)
+    t3 = time.perf_counter()
+    print(f"{{t1 - t0}} {{t2 - t1}} {{t3 - t2}}")
+""")
+
+
+def compile_times(problem: str) -> tuple[float, float]:
+    """(first run in a fresh process and an empty cache, first run of a later process):
+    time from the first simulate() call to its return, minus one steady-state run."""
+    code = COMPILE_SNIPPET.format(bench=str(Path(__file__).resolve().parent), problem=problem)
+    with tempfile.TemporaryDirectory() as cache:
+        env = dict(os.environ, HGO_CACHE_DIR=cache)
+        out = []
+        for _ in range(2):
+            res = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                                 text=True, cwd=ROOT, check=True)
+            _, first, steady = (float(v) for v in res.stdout.split()[-3:])
+            out.append(first - steady)
+    return out[0], out[1]
+
+
+# ---------------------------------------------------------------------- main
+def fmt(x: float) -> str:
+    return f"{x:.3g}"
+
+
+def table(title: str, header: list[str], rows: list[list]) -> None:
+    print(f"\n## {title}\n")
+    print("| " + " | ".join(header) + " |")
+    print("|" + "|".join("---" for _ in header) + "|")
+    for r in rows:
+        print("| " + " | ".join(fmt(v) if isinstance(v, float) else str(v) for v in r) + " |")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--quick", action="store_true", help="reduced run (< 60 s)")
+    args = ap.parse_args()
+    quick = args.quick
+    reps = 3 if quick else 5
+    t_start = time.perf_counter()
+    print(f"# hgo benchmark ({'quick' if quick else 'full'}), {os.cpu_count()} cores, "
+          f"numba threads {__import__('numba').get_num_threads()}")
+
+    # ---------------- problem B, single run
+    sysB, solB = b_system(), b_solver()
+    simulate(sysB, solB, no_noise(1))  # compile / load
+    n_out = int(round(B_T / B_DT)) + 1
+    rec = np.zeros((n_out, 3))
+    acc = np.zeros(3)
+
+    def hand_b():
+        return bl.b_kernel(3.0, 3.0, 1.5, B_T, B_DT, RTOL_B, ATOL_B, 1e-3, B_T / 4, rec, acc)
+
+    hand_b()
+    t_ref, ref_b = bl.b_solve_ivp((3.0, 3.0), 1.5, B_T, B_DT, 1e-12, 1e-14, "DOP853")
+    tb_hgo, tr = median_time(lambda: simulate(sysB, solB, no_noise(1)), max(reps, 5))
+    tb_hand, n_steps = median_time(hand_b, max(reps, 5))
+    tb_ivp, (_, y_ivp) = median_time(
+        lambda: bl.b_solve_ivp((3.0, 3.0), 1.5, B_T, B_DT, RTOL_B, ATOL_B), 3)
+    err_b = {"hgo": np.abs(b_errors(tr) - ref_b).max(), "hand": np.abs(rec - ref_b).max(),
+             "ivp": np.abs(y_ivp - ref_b).max()}
+    rows_b = [["hgo simulate (DOPRI5)", tb_hgo, tb_ivp / tb_hgo, err_b["hgo"]],
+              ["hand-written numba DOPRI5", tb_hand, tb_ivp / tb_hand, err_b["hand"]],
+              ["solve_ivp RK45, Python RHS", tb_ivp, 1.0, err_b["ivp"]]]
+    table(f"Problem B: S-P error system (20), horizon {B_T:g} s, output every {B_DT} s, "
+          f"rtol {RTOL_B:g}, atol {ATOL_B:g} ({n_steps} steps)",
+          ["method", "time (s)", "speedup vs solve_ivp", "max error vs DOP853 1e-12"], rows_b)
+    print(f"\nhgo / hand-written: {tb_hgo / tb_hand:.2f}x")
+
+    # ---------------- problem B, ensemble
+    n_ens = 1000
+    p2, e0 = ensemble_members(n_ens)
+    params, z0 = ensemble_inputs(sysB, p2, e0)
+    simulate_ensemble(sysB, solB, no_noise(1), params, z0)
+    acc_h = np.zeros((n_ens, 3))
+    bl.b_ensemble(e0, p2, B_T, B_DT, RTOL_B, ATOL_B, 1e-3, B_T / 4, acc_h)
+    te_hgo, res = median_time(lambda: simulate_ensemble(sysB, solB, no_noise(1), params, z0),
+                              reps)
+    te_hand, _ = median_time(
+        lambda: bl.b_ensemble(e0, p2, B_T, B_DT, RTOL_B, ATOL_B, 1e-3, B_T / 4, acc_h), reps)
+    n_sample = 5 if quick else 20
+    t0 = time.perf_counter()
+    for i in range(n_sample):
+        bl.b_solve_ivp(e0[i], p2[i], B_T, B_DT, RTOL_B, ATOL_B)
+    te_ivp = (time.perf_counter() - t0) / n_sample * n_ens
+    rel = np.abs(res["acc"][:, :2] - acc_h[:, :2]).max() / np.abs(acc_h[:, :2]).max()
+    table(f"Problem B ensemble: {n_ens} members, p2 ~ U[0.5, 3], e(0) ~ U[-3, 3]^2",
+          ["method", "wall time (s)", "speedup vs solve_ivp loop"],
+          [["hgo simulate_ensemble (prange)", te_hgo, te_ivp / te_hgo],
+           ["hand-written numba (prange)", te_hand, te_ivp / te_hand],
+           [f"solve_ivp loop (extrapolated from {n_sample} members)", te_ivp, 1.0]])
+    print(f"\nhgo / hand-written: {te_hgo / te_hand:.2f}x; members with status != 0: "
+          f"{int((res['status'] != 0).sum())}; max relative difference of the window "
+          f"integrals hgo vs hand: {rel:.1e}")
+
+    # ---------------- problem A
+    sysA, solA, noiseA = a_system(), a_solver(), a_noise()
+    simulate(sysA, solA, noiseA)
+    s0 = np.concatenate([sysA.plant.x0, sysA.observers[0].z0])
+    stab = solA.stability_safety * 2.785
+    every = int(round(A_DT_OUT / A_NOISE_DT))
+    n_rec = int(round(A_T / A_DT_OUT)) + 1
+    rec_a = np.zeros((n_rec, 5))
+    rec_ref = np.zeros((n_rec, 5))
+    vA = noiseA.samples[:, 0].copy()
+    bl.a_kernel(s0, vA, A_NOISE_DT, A_T, A_SWITCH, stab, every, rec_a)
+    bl.a_kernel(s0, vA, A_NOISE_DT, A_T, A_SWITCH, stab / 8, every, rec_ref)  # reference
+    ta_hgo, trA = median_time(lambda: simulate(sysA, solA, noiseA), reps)
+    ta_hand, n_steps_a = median_time(
+        lambda: bl.a_kernel(s0, vA, A_NOISE_DT, A_T, A_SWITCH, stab, every, rec_a), reps)
+    hgo_a = np.c_[trA.z[:, :3], trA.z[:, 3:5]]
+    # solve_ivp: segment by segment; a sample of segments before and after the switch,
+    # extrapolated (the full run takes ~15-30 s per repetition)
+    n_seg = int(round(A_T / A_NOISE_DT))
+    n_before = int(round(A_SWITCH / A_NOISE_DT))
+    n_smp = 60 if quick else 250
+    t0 = time.perf_counter()
+    out_ivp = bl.a_solve_ivp(s0, vA, A_NOISE_DT, A_T, A_SWITCH, 1e-6, 1e-9,
+                             n_segments=n_smp)
+    t_first = time.perf_counter() - t0
+    # second sample: after the switch, started from the reference state at a noise instant
+    start = n_before + 500
+    s_start = bl_state_at(s0, vA, stab / 8, start)
+    t0 = time.perf_counter()
+    bl_a_segments(s_start, vA, start, n_smp)
+    t_after = time.perf_counter() - t0
+    ta_ivp = t_first / n_smp * n_before + t_after / n_smp * (n_seg - n_before)
+    ta_ivp_measured = None
+    err_ivp_a = np.abs(out_ivp[::every][: n_smp // every + 1]
+                       - rec_ref[: n_smp // every + 1]).max()
+    if not quick:  # one full solve_ivp run: measured time and error over the horizon
+        t0 = time.perf_counter()
+        out_full = bl.a_solve_ivp(s0, vA, A_NOISE_DT, A_T, A_SWITCH, 1e-6, 1e-9)
+        ta_ivp_measured = time.perf_counter() - t0
+        err_ivp_a = np.abs(out_full[::every] - rec_ref).max()
+        ta_ivp = ta_ivp_measured
+    err_a = {"hgo": np.abs(hgo_a - rec_ref).max(), "hand": np.abs(rec_a - rec_ref).max()}
+    rows_a = [["hgo simulate (RK4, step from the active gain's margin)", ta_hgo,
+               ta_ivp / ta_hgo, err_a["hgo"]],
+              ["hand-written numba RK4", ta_hand, ta_ivp / ta_hand, err_a["hand"]],
+              ["solve_ivp RK45 (rtol 1e-6, atol 1e-9), Python RHS, per noise segment"
+               + (" (extrapolated)" if ta_ivp_measured is None else " (1 full run)"),
+               ta_ivp, 1.0, err_ivp_a]]
+    table(f"Problem A: DC motor + switched HGO (eps 5e-4 -> 0.01 at t = {A_SWITCH:g} s), "
+          f"noise +-{A_NOISE} held {A_NOISE_DT * 1e3:g} ms, horizon {A_T:g} s, output "
+          f"every {A_DT_OUT} s ({n_steps_a} RK4 steps)",
+          ["method", "time (s)", "speedup vs solve_ivp", "max error vs RK4 h/8"], rows_a)
+    print(f"\nhgo / hand-written: {ta_hgo / ta_hand:.2f}x; hgo status {trA.status}; "
+          f"gain switches {int(trA.d[-1, 4])} at t = {trA.d[-1, 5]:.4f} s")
+
+    # ---------------- compile times
+    rows_c = []
+    for prob in ("B", "A"):
+        first, cached = compile_times(prob)
+        rows_c.append([prob, first, cached])
+    table("Compilation (fresh process, temporary HGO_CACHE_DIR): time of the first "
+          "simulate() minus a steady run", ["problem", "first process (s)",
+                                            "later process, cached (s)"], rows_c)
+
+    # ---------------- logging
+    from hgo.recording import write_recording
+    from hgo.runner import signals
+
+    n_log = 10**6
+    sol_log = SolverSettings(t_end=B_T, dt_out=B_T / n_log, method="dopri5", h_max=B_T,
+                             rtol=RTOL_B, atol=ATOL_B)
+    simulate(sysB, sol_log, no_noise(1))
+    t_sim, tr_log = median_time(lambda: simulate(sysB, sol_log, no_noise(1)), 3)
+    with tempfile.TemporaryDirectory() as tmp:
+        t_log, _ = median_time(lambda: write_recording(
+            Path(tmp) / "run.rrd", tr_log.t, signals(sysB, tr_log), recording_id="bench"), 3)
+        size = (Path(tmp) / "run.rrd").stat().st_size
+    table(f"Logging: a {n_log + 1:,}-sample run of problem B",
+          ["simulate (s)", "write_recording (s)", "logging / simulation", "file (MB)"],
+          [[t_sim, t_log, t_log / t_sim, size / 1e6]])
+
+    # ---------------- scaling
+    rows_h = []
+    for k in ([1, 10] if quick else [1, 10, 100]):
+        sol = b_solver(t_end=B_T * k)
+        simulate(sysB, sol, no_noise(1))
+        th, _ = median_time(lambda sol=sol: simulate(sysB, sol, no_noise(1)), 3)
+        rows_h.append([f"{B_T * k:g} s ({k}x)", th, th / k, th / k / rows_h[0][1]
+                       if rows_h else 1.0])
+    table("Scaling with the horizon (problem B, single run, output every 0.01 s)",
+          ["horizon", "time (s)", "time / k", "relative cost per unit horizon"], rows_h)
+    rows_e = []
+    sizes = [10, 100, 1000] if quick else [10, 100, 1000, 10000]
+    for n in sizes:
+        p2n, e0n = ensemble_members(n, seed=1)
+        pn, zn = ensemble_inputs(sysB, p2n, e0n)
+        tn, _ = median_time(lambda pn=pn, zn=zn: simulate_ensemble(sysB, solB, no_noise(1),
+                                                                      pn, zn),
+                            3 if n <= 1000 else 1)
+        rows_e.append([n, tn, tn / n * 1e3])
+    per = [r[2] for r in rows_e]
+    table("Scaling with the ensemble size (problem B, 200 s)",
+          ["members", "wall time (s)", "ms per member"], rows_e)
+    print(f"\nper-member cost at {sizes[-1]} vs {sizes[1]}: {per[-1] / per[1]:.2f}x")
+    print(f"\ntotal benchmark time {time.perf_counter() - t_start:.0f} s")
+    print(f"speedup_vs_solve_ivp: A={ta_ivp / ta_hgo:.0f} B={tb_ivp / tb_hgo:.0f} "
+          f"ensemble={te_ivp / te_hgo:.0f}")
+
+
+def bl_state_at(s0, v, stab, k):
+    """Reference state at noise instant k (hand RK4 with a small step)."""
+    rec = np.zeros((k + 1, 5))
+    bl.a_kernel(s0, v[: k + 1].copy(), A_NOISE_DT, k * A_NOISE_DT, A_SWITCH, stab, 1, rec)
+    return rec[-1]
+
+
+def bl_a_segments(s, v, start, n):
+    """solve_ivp RK45 over noise segments start .. start + n (timing sample)."""
+    for k in range(start, start + n):
+        t0, t1 = k * A_NOISE_DT, (k + 1) * A_NOISE_DT
+        eps, a1, a2 = bl.a_gains(t0, A_SWITCH)
+        sol = bl.solve_ivp(bl.a_rhs_py, (t0, t1), s, method="RK45", rtol=1e-6, atol=1e-9,
+                           args=(eps, a1, a2, v[k]))
+        s = sol.y[:, -1]
+    return s
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,158 @@
+"""The compiled engine against independent references (scipy), and its failure paths."""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from hgo.components import Observer, Plant
+from hgo.engine.simulate import Noise, SolverSettings, no_noise, simulate, simulate_ensemble
+from hgo.engine.system import System
+from hgo.ensemble import stack_members
+from hgo.observers.triangular import triangular_hgo
+from hgo.plants.sp_linear import sp_linear_plant
+
+P1, B, NU1 = 4 / 3, 0.28, 3.0
+
+
+def sp_system(p2: float = 1.5, e0=(3.0, 3.0), nu2: float = 0.0) -> System:
+    plant = sp_linear_plant(nu1=NU1, nu2=nu2, x0=(0, 0))
+    obs = triangular_hgo("o", K=[2, 2], xhat0=list(e0), r0=1, law="sign_indefinite", p1=P1,
+                         p2=p2, b=B, M=[[NU1, 0], [0, 0]])
+    return System(plant, [obs])
+
+
+def sp_rhs(t, s, p2, nu2, m):
+    """Plant (18) + observer (5)-(7), law (6), y = x1 + m, as plain Python."""
+    x1, x2, z1, z2, r = s
+    e = z1 - (x1 + m)
+    return [x2 + NU1 * x1 + nu2, 0.0, z2 + NU1 * z1 - 2 * r * e, -2 * r * r * e,
+            P1 * ((e * e - p2) * r ** (1 - 2 * B) + p2 / r ** 4)]
+
+
+def test_dopri5_matches_tight_reference() -> None:
+    t_end, dt = 40.0, 0.01
+    tr = simulate(sp_system(), SolverSettings(t_end=t_end, dt_out=dt, h_max=t_end),
+                  no_noise(1))
+    assert tr.ok and len(tr.t) == 4001
+    ref = solve_ivp(sp_rhs, (0, t_end), [0, 0, 3, 3, 1], method="DOP853", rtol=1e-12,
+                    atol=1e-14, t_eval=tr.t, args=(1.5, 0.0, 0.0))
+    err = np.abs(tr.z - ref.y.T).max()
+    assert err < 1e-5, f"max error vs DOP853 (rtol 1e-12) = {err:.2e}"
+
+
+def test_rk4_with_held_noise_matches_segmentwise_reference() -> None:
+    """Noise held on [k dt, (k+1) dt): steps must be cut at every sample instant."""
+    t_end, noise_dt, nu2 = 2.0, 0.013, 0.1  # noise instants not on the output grid
+    rng = np.random.default_rng(3)
+    samples = rng.uniform(-0.05, 0.05, (int(t_end / noise_dt) + 2, 1))
+    solver = SolverSettings(t_end=t_end, dt_out=0.01, method="rk4", h_max=2e-3)
+    tr = simulate(sp_system(nu2=nu2), solver, Noise(samples, noise_dt))
+    assert tr.ok
+    # reference: DOP853 from sample instant to sample instant with the held value
+    s = np.array([0, 0, 3, 3, 1], float)
+    edges = np.unique(np.r_[np.arange(0, t_end, noise_dt), t_end])
+    dense = []
+    for k, (a, b) in enumerate(zip(edges[:-1], edges[1:], strict=True)):
+        sol = solve_ivp(sp_rhs, (a, b), s, method="DOP853", rtol=1e-12, atol=1e-14,
+                        dense_output=True, args=(1.5, nu2, samples[k, 0]))
+        dense.append((a, b, sol.sol))
+        s = sol.y[:, -1]
+    ref = np.array([next(sol(t) for a, b, sol in dense if a <= t <= b + 1e-12)
+                    for t in tr.t])
+    err = np.abs(tr.z - ref).max()
+    # RK4 truncation at h <= 2e-3 is ~1e-8; a step straddling a noise jump would give
+    # an O(h * jump) ~ 1e-4 error
+    assert err < 1e-7, f"max error vs segment-wise DOP853 = {err:.2e}"
+    # the recorded noise is the held sample
+    k = np.minimum((tr.t / noise_dt + 1e-9).astype(int), len(samples) - 1)
+    np.testing.assert_array_equal(tr.m[:, 0], samples[k, 0])
+
+
+@pytest.mark.parametrize("method", ["dopri5", "rk4"])
+def test_ensemble_equals_single_runs(method: str) -> None:
+    rng = np.random.default_rng(0)
+    systems = [sp_system(p2=float(p2), e0=tuple(e0))
+               for p2, e0 in zip(rng.uniform(0.5, 3, 6), rng.uniform(-3, 3, (6, 2)),
+                                 strict=True)]
+    params, z0 = stack_members(systems)
+    solver = SolverSettings(t_end=20.0, dt_out=0.01, method=method, h_max=1e-2)
+    res = simulate_ensemble(systems[0], solver, no_noise(1), params, z0)
+    for i, s in enumerate(systems):
+        tr = simulate(s, solver, no_noise(1))
+        assert res["status"][i] == tr.status
+        np.testing.assert_allclose(res["acc"][i], tr.acc, rtol=1e-12, atol=0,
+                                   err_msg=f"member {i}")
+        assert res["t_stop"][i] == tr.t_stop
+
+
+def test_stack_members_rejects_different_layouts() -> None:
+    other = System(sp_linear_plant(), [triangular_hgo("o", K=[2], xhat0=[0.0])])
+    with pytest.raises(ValueError, match="member 1"):
+        stack_members([sp_system(), other])
+
+
+def _blowup_f(t, x, u, p, dx):
+    dx[0] = x[0] * x[0]  # x' = x^2, x(0) = 1: x = 1 / (1 - t), infinite at t = 1
+
+
+def _blowup_h(t, x, p, y):
+    y[0] = x[0]
+
+
+def _copy_f(t, z, d, y, u, p, dz):
+    dz[0] = 0.0
+
+
+def _copy_est(t, z, d, p, xhat):
+    xhat[0] = z[0]
+
+
+def _blowup_system() -> System:
+    plant = Plant("blowup", ["x"], ["y"], [], np.array([1.0]), np.zeros(0), _blowup_f,
+                  _blowup_h)
+    obs = Observer("o", ["xh"], [], [0], np.zeros(1), np.zeros(0), np.zeros(0), _copy_f,
+                   _copy_est)
+    return System(plant, [obs])
+
+
+@pytest.mark.parametrize("method", ["rk4", "dopri5"])
+def test_non_finite_state_stops_and_keeps_samples(method: str) -> None:
+    solver = SolverSettings(t_end=2.0, dt_out=0.01, method=method, h_max=0.01,
+                            state_bound=math.inf)
+    tr = simulate(_blowup_system(), solver, no_noise(1))
+    assert tr.status in (1, 3), tr.message  # rk4: non-finite; dopri5 may underflow first
+    if method == "rk4":
+        assert tr.status == 1 and tr.message == "non-finite state"
+    assert 0.9 < tr.t_stop <= 1.05
+    assert len(tr.t) >= 90 and np.all(np.isfinite(tr.z))
+    np.testing.assert_allclose(tr.z[:50, 0], 1 / (1 - tr.t[:50]), rtol=1e-6)
+
+
+class _Gains:
+    a = -1.0
+
+
+GAINS = _Gains()
+
+
+def _dict_f(t, x, u, p, dx):
+    dx[0] = GAINS.a * x[0]  # an arbitrary Python object: numba cannot type this
+
+
+def test_uncompilable_user_plant_runs_on_python_path_with_warning() -> None:
+    plant = Plant("dict", ["x"], ["y"], [], np.array([1.0]), np.zeros(0), _dict_f, _blowup_h)
+    obs = Observer("o", ["xh"], [], [0], np.zeros(1), np.zeros(0), np.zeros(0), _copy_f,
+                   _copy_est)
+    solver = SolverSettings(t_end=1.0, dt_out=0.1, method="rk4", h_max=0.01)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        tr = simulate(System(plant, [obs]), solver, no_noise(1))
+    msgs = [str(w.message) for w in caught if issubclass(w.category, RuntimeWarning)]
+    assert any("pure-Python path" in m and "numba could not compile" in m for m in msgs), msgs
+    assert tr.ok
+    np.testing.assert_allclose(tr.z[:, 0], np.exp(-tr.t), rtol=1e-8)
