@@ -199,8 +199,8 @@ def main() -> None:
 
     hand_b()
     t_ref, ref_b = bl.b_solve_ivp((3.0, 3.0), 1.5, B_T, B_DT, 1e-12, 1e-14, "DOP853")
-    tb_hgo, tr = median_time(lambda: simulate(sysB, solB, no_noise(1)), max(reps, 5))
-    tb_hand, n_steps = median_time(hand_b, max(reps, 5))
+    tb_hgo, tr = median_time(lambda: simulate(sysB, solB, no_noise(1)), 5)
+    tb_hand, n_steps = median_time(hand_b, 5)
     tb_ivp, (_, y_ivp) = median_time(
         lambda: bl.b_solve_ivp((3.0, 3.0), 1.5, B_T, B_DT, RTOL_B, ATOL_B), 3)
     err_b = {"hgo": np.abs(b_errors(tr) - ref_b).max(), "hand": np.abs(rec - ref_b).max(),
@@ -296,7 +296,7 @@ def main() -> None:
 
     # ---------------- compile times
     rows_c = []
-    for prob in ("B", "A"):
+    for prob in (("B",) if quick else ("B", "A")):
         first, cached = compile_times(prob)
         rows_c.append([prob, first, cached])
     table("Compilation (fresh process, temporary HGO_CACHE_DIR): time of the first "
@@ -311,10 +311,11 @@ def main() -> None:
     sol_log = SolverSettings(t_end=B_T, dt_out=B_T / n_log, method="dopri5", h_max=B_T,
                              rtol=RTOL_B, atol=ATOL_B)
     simulate(sysB, sol_log, no_noise(1))
-    t_sim, tr_log = median_time(lambda: simulate(sysB, sol_log, no_noise(1)), 3)
+    t_sim, tr_log = median_time(lambda: simulate(sysB, sol_log, no_noise(1)), reps)
     with tempfile.TemporaryDirectory() as tmp:
         t_log, _ = median_time(lambda: write_recording(
-            Path(tmp) / "run.rrd", tr_log.t, signals(sysB, tr_log), recording_id="bench"), 3)
+            Path(tmp) / "run.rrd", tr_log.t, signals(sysB, tr_log), recording_id="bench"),
+            1 if quick else 3)
         size = (Path(tmp) / "run.rrd").stat().st_size
     table(f"Logging: a {n_log + 1:,}-sample run of problem B",
           ["simulate (s)", "write_recording (s)", "logging / simulation", "file (MB)"],
@@ -337,7 +338,7 @@ def main() -> None:
         pn, zn = ensemble_inputs(sysB, p2n, e0n)
         tn, _ = median_time(lambda pn=pn, zn=zn: simulate_ensemble(sysB, solB, no_noise(1),
                                                                       pn, zn),
-                            3 if n <= 1000 else 1)
+                            3 if n < (1000 if quick else 10000) else 1)
         rows_e.append([n, tn, tn / n * 1e3])
     per = [r[2] for r in rows_e]
     table("Scaling with the ensemble size (problem B, 200 s)",
