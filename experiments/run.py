@@ -1,4 +1,5 @@
-"""Hydra entry point: ``python experiments/run.py experiment=sp_fig1`` (add ``-m`` to sweep).
+"""Hydra entry point: ``python experiments/run.py experiment=sp_fig1`` (add ``-m`` to sweep;
+``ensemble.size=N`` runs N members of the config in one compiled call).
 
 Each job writes into its Hydra run directory (under ``outputs/``): ``recording.rrd``
 (open with ``rerun <file>``), ``metrics.csv`` and the composed config in ``.hydra/``.
@@ -11,6 +12,7 @@ from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
 
 from hgo.config import register_configs
+from hgo.ensemble_runner import run_ensemble
 from hgo.runner import run
 
 register_configs()
@@ -18,7 +20,11 @@ register_configs()
 
 @hydra.main(version_base="1.3", config_path="../conf", config_name="config")
 def main(cfg: DictConfig) -> None:
-    run(cfg, HydraConfig.get().runtime.output_dir)
+    out_dir = HydraConfig.get().runtime.output_dir
+    if cfg.ensemble.size > 0:
+        run_ensemble(cfg, out_dir)
+    else:
+        run(cfg, out_dir)
 
 
 if __name__ == "__main__":

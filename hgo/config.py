@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import importlib
 from dataclasses import dataclass, field
+from typing import Any
 
 from hydra.core.config_store import ConfigStore
 
@@ -74,6 +75,16 @@ class MetricsConf:
     window: float = 25.0
 
 
+@dataclass
+class EnsembleConf:
+    """``size`` members (0: a single run); ``vary``: dotted key -> [low, high] (scalar) or
+    [[low, high], ...] (vector), drawn uniformly with ``seed``."""
+
+    size: int = 0
+    seed: int = 0
+    vary: dict[str, Any] = field(default_factory=dict)
+
+
 def register_configs() -> None:
     """Store every schema in Hydra's ConfigStore (idempotent)."""
     cs = ConfigStore.instance()
@@ -82,6 +93,7 @@ def register_configs() -> None:
     cs.store(group="schema/noise", name="noise", node=NoiseConf)
     cs.store(group="schema/solver", name="solver", node=SolverConf)
     cs.store(group="schema", name="metrics", node=MetricsConf)
+    cs.store(group="schema/ensemble", name="ensemble", node=EnsembleConf)
     for module, function in _EXTENSIONS:
         try:
             getattr(importlib.import_module(module), function)()

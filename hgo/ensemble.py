@@ -8,7 +8,12 @@ layout (the same compiled kernel serves them all).
 
 from __future__ import annotations
 
+import copy
+from collections.abc import Mapping
+from typing import Any
+
 import numpy as np
+from omegaconf import DictConfig, OmegaConf
 
 from hgo.engine.system import System
 
@@ -39,3 +44,66 @@ def stack_members(systems: list[System]) -> tuple[np.ndarray, np.ndarray]:
     params = np.stack([s.params() for s in systems])
     z0 = np.stack([s.z0() for s in systems])
     return params, z0
+
+
+# --- ensembles from a Hydra config (``ensemble.size > 0``) ------------------------------
+
+def draw_members(vary: Mapping[str, Any], size: int, seed: int) -> dict[str, np.ndarray]:
+    """Uniform draws per member: ``key: [low, high]`` gives (size,), ``key: [[l, h], ...]``
+    gives (size, k) for a vector parameter (e.g. an initial state)."""
+    rng = np.random.default_rng(seed)
+    draws = {}
+    for key, spec in vary.items():
+        bounds = np.asarray(spec, dtype=float)
+        if bounds.shape == (2,):
+            low, high = bounds
+        elif bounds.ndim == 2 and bounds.shape[1] == 2:
+            low, high = bounds[:, 0], bounds[:, 1]
+        else:
+            raise ValueError(f"ensemble.vary.{key}: expected [low, high] or a list of "
+                             f"[low, high] pairs, got {spec}")
+        if np.any(np.asarray(high) < np.asarray(low)):
+            raise ValueError(f"ensemble.vary.{key}: high < low in {spec}")
+        draws[key] = rng.uniform(low, high, size=(size, *np.shape(low)))
+    return draws
+
+
+def _set(tree: dict, dotted: str, value: Any) -> None:
+    *path, leaf = dotted.split(".")
+    node = tree
+    for part in path:
+        if not isinstance(node, dict) or part not in node:
+            raise ValueError(f"ensemble.vary: '{dotted}' is not a key of the config")
+        node = node[part]
+    if leaf not in node:
+        raise ValueError(f"ensemble.vary: '{dotted}' is not a key of the config")
+    node[leaf] = value.tolist() if isinstance(value, np.ndarray) else float(value)
+
+
+def _interpolated_keys(cfg: DictConfig, keys: list[str]) -> list[str]:
+    """Varied keys that other entries of the config interpolate (``${key}``)."""
+    text = OmegaConf.to_yaml(cfg)
+    return [k for k in keys if "${" + k + "}" in text]
+
+
+def member_nodes(cfg: DictConfig, draws: dict[str, np.ndarray]) -> list[Mapping]:
+    """The component nodes (plant, observer, controller) of every member.
+
+    Fast path: resolve the config once and set the drawn values in plain copies. If
+    another entry interpolates a varied key (``M: [[${plant.nu1}, 0], ...]``), every
+    member is re-resolved so the interpolation follows the drawn value.
+    """
+    groups = ("plant", "observer", "controller")
+    size = len(next(iter(draws.values()))) if draws else 0
+    job = OmegaConf.create({k: cfg[k] for k in cfg if k != "hydra"})
+    linked = _interpolated_keys(job, list(draws))
+    base = OmegaConf.to_container(job, resolve=not linked)
+    members = []
+    for i in range(size):
+        tree = copy.deepcopy(base)
+        for key, values in draws.items():
+            _set(tree, key, values[i])
+        if linked:
+            tree = OmegaConf.to_container(OmegaConf.create(tree), resolve=True)
+        members.append({g: tree.get(g) for g in groups})
+    return members

@@ -12,10 +12,10 @@ from __future__ import annotations
 import logging
 import re
 import uuid
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 from hydra.errors import InstantiationException
 from hydra.utils import instantiate
@@ -66,16 +66,16 @@ def _instantiate(node: DictConfig, group: str, expected: type, **kwargs):
     return obj
 
 
-def _observers(cfg: DictConfig) -> list[Observer]:
-    if not cfg.observer:
+def build_system(nodes: Mapping) -> System:
+    """Plant, observers and controller from the ``plant``/``observer``/``controller``
+    nodes of a config (a DictConfig or a plain mapping of the same shape)."""
+    if not nodes["observer"]:
         raise ValueError("observer: the config group is empty; choose an observer option")
-    return [_instantiate(node, f"observer.{name}", Observer, name=name)
-            for name, node in cfg.observer.items()]
-
-
-def _controller(cfg: DictConfig) -> Controller | None:
-    node = cfg.get("controller")
-    return _instantiate(node, "controller", Controller) if node else None
+    plant = _instantiate(nodes["plant"], "plant", Plant)
+    observers = [_instantiate(node, f"observer.{name}", Observer, name=name)
+                 for name, node in nodes["observer"].items()]
+    ctrl = nodes.get("controller")
+    return System(plant, observers, _instantiate(ctrl, "controller", Controller) if ctrl else None)
 
 
 def solver_settings(cfg: DictConfig) -> SolverSettings:
@@ -92,8 +92,7 @@ def solver_settings(cfg: DictConfig) -> SolverSettings:
 def build(cfg: DictConfig) -> Experiment:
     """Instantiate and check every component; raises ValueError naming the bad key."""
     solver = solver_settings(cfg)
-    plant = _instantiate(cfg.plant, "plant", Plant)
-    system = System(plant, _observers(cfg), _controller(cfg))
+    system = build_system(cfg)
     noise = _instantiate(cfg.noise, "noise", NoiseModel)
     return Experiment(system, solver, noise, int(cfg.seed))
 
@@ -205,9 +204,3 @@ def run(cfg: DictConfig, out_dir: str | Path) -> RunResult:
     _figures(cfg, result)
     return result
 
-
-def finite_or_raise(values: np.ndarray, what: str) -> np.ndarray:
-    """No silent NaNs: a non-finite value in a derived signal is an error naming it."""
-    if not np.all(np.isfinite(values)):
-        raise ValueError(f"{what}: non-finite values")
-    return values
