@@ -11,6 +11,9 @@ metrics come back. Outputs in the run directory:
   ``n_ok``, ``n_failed``, and ``holds_fraction`` where a bound exists.
 * ``recording.rrd``: the full trajectory of member 0 (a representative run).
 * ``ensemble.png``: the distribution of every metric over the members.
+
+The ``postprocess`` and ``figures`` of the config need trajectories and are not applied
+(a warning says so).
 """
 
 from __future__ import annotations
@@ -107,6 +110,10 @@ def run_ensemble(cfg: DictConfig, out_dir: str | Path) -> EnsembleResult:
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     size, seed = int(cfg.ensemble.size), int(cfg.seed)
+    skipped = [k for k in ("postprocess", "figures") if cfg.get(k)]
+    if skipped:
+        log.warning("ensemble: %s not applied (members keep metrics, not trajectories)",
+                    " and ".join(skipped))
     solver = solver_settings(cfg)
     noise_model = _instantiate(cfg.noise, "noise", NoiseModel)
     draws = draw_members(cfg.ensemble.vary, size, int(cfg.ensemble.seed))
