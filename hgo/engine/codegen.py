@@ -91,7 +91,7 @@ def _header(system: System, names: dict) -> str:
         f"YHAT_COL = np.array({system.yhat_columns().tolist()}, dtype=np.int64)",
         "",
         "",
-        "@jit",
+        "@ijit",
         "def _signals(t, z, d, m, P, w):",
         '    """Measured outputs y = h(x) + m and the input u, into the work vector w."""',
         f"    {names['plant_h']}(t, {_v('z', 0, nx)}, {_v('P', *ps[0])}, {y})",
@@ -106,26 +106,26 @@ def _header(system: System, names: dict) -> str:
             f"    {names['obs'][k][2]}(t, {zk}, {dk}, {pk}, {xc})",
             f"    {names['ctrl']}(t, {xc}, {y}, {_v('P', *ps[-1])}, {u})",
         ]
-    lines += ["", "", "@jit", "def system_rhs(t, z, d, m, P, w, dz):",
+    lines += ["", "", "@ijit", "def system_rhs(t, z, d, m, P, w, dz):",
               "    _signals(t, z, d, m, P, w)",
               f"    {names['plant_f']}(t, {_v('z', 0, nx)}, {u}, {_v('P', *ps[0])}, "
               f"{_v('dz', 0, nx)})"]
     for k, (f, _, _) in enumerate(names["obs"]):
         zk, dk, pk = obs_args(k)
         lines.append(f"    {f}(t, {zk}, {dk}, {y}, {u}, {pk}, {_v('dz', *zs[k + 1])})")
-    lines += ["", "", "@jit", "def system_update(t, z, d, m, P, w):",
+    lines += ["", "", "@ijit", "def system_update(t, z, d, m, P, w):",
               "    _signals(t, z, d, m, P, w)"]
     for k, (_, upd, _) in enumerate(names["obs"]):
         zk, dk, pk = obs_args(k)
         lines.append(f"    {upd}(t, {zk}, {dk}, {y}, {u}, {pk})")
-    lines += ["", "", "@jit", "def system_outputs(t, z, d, m, P, w, y, u, xh):",
+    lines += ["", "", "@ijit", "def system_outputs(t, z, d, m, P, w, y, u, xh):",
               "    _signals(t, z, d, m, P, w)",
               f"    for i in range({ny}):", "        y[i] = w[i]",
               f"    for i in range({nu}):", f"        u[i] = w[{ny} + i]"]
     for k, (_, _, est) in enumerate(names["obs"]):
         zk, dk, pk = obs_args(k)
         lines.append(f"    {est}(t, {zk}, {dk}, {pk}, {_v('xh', *xs[k])})")
-    lines += ["", "", "@jit", "def system_stiffness(t, z, d, P):",
+    lines += ["", "", "@ijit", "def system_stiffness(t, z, d, P):",
               '    """Largest spectral radius declared *now* by components with a hook."""',
               "    rho = 0.0"]
     for k, fn in enumerate(names["stiff"]):
@@ -201,8 +201,8 @@ def load_kernel(system: System, compiled: bool = True, method: str = "dopri5") -
     spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
     module.__dict__.update(_decorators(compiled))
-    jit = module.__dict__["jit"]
-    module.__dict__.update({k: jit(fn) for k, fn in functions.items()})
+    ijit = module.__dict__["ijit"]
+    module.__dict__.update({k: ijit(fn) for k, fn in functions.items()})
     sys.modules[name] = module
     spec.loader.exec_module(module)
     _LOADED[key] = module
@@ -236,7 +236,7 @@ def _decorators(compiled: bool) -> dict[str, object]:
     return {
         "jit": numba.njit(cache=True, error_model="numpy"),
         # small helpers called per output sample: inlined by numba itself
-        "ijit": numba.njit(cache=True, error_model="numpy", inline="always"),
+        "ijit": numba.njit(cache=True, error_model="numpy", forceinline=True),
         "pjit": numba.njit(cache=True, parallel=True, error_model="numpy"),
         "prange": numba.prange,
         "view": view_function(True),

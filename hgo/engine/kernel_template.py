@@ -33,7 +33,7 @@ import math
 import numpy as np
 
 
-@jit
+@ijit
 def _state_status(z, bound):
     for i in range(z.shape[0]):
         if not math.isfinite(z[i]):
@@ -103,7 +103,7 @@ def integrate_ensemble(Z0, D0, PP, noise, noise_dt, t_end, dt_out, h_max, rtol, 
 
 
 # --- section: rk4 ---
-@jit
+@ijit
 def _rk4_step(t, h, z, d, m, P, w, k1, k2, k3, k4, zt):
     n = z.shape[0]
     system_rhs(t, z, d, m, P, w, k1)
@@ -124,15 +124,13 @@ def _rk4_step(t, h, z, d, m, P, w, k1, k2, k3, k4, zt):
 @jit
 def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, rho_const,
               bound, t_window, Z, D, Y, M, U, XH, acc):
-    """Integrate one run (RK4). Returns (status, number of output samples, stop time)."""
+    """Integrate one run (RK4). Returns (status, number of output samples, stop time).
+
+    One compiled function (no wrapper around an inner one): every extra level of numba
+    functions re-optimises and re-emits the whole inlined body, which cost seconds of
+    compilation.
+    """
     work = np.zeros(5 * z.shape[0] + _n_common_work(z.shape[0]))
-    return _integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, stab, rho_const,
-                      bound, t_window, Z, D, Y, M, U, XH, acc, work)
-
-
-@jit
-def _integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, stab, rho_const, bound,
-               t_window, Z, D, Y, M, U, XH, acc, work):
     z, d, P, noise, acc = borrow(z), borrow(d), borrow(P), borrow(noise), borrow(acc)
     Z, D, Y, M, U, XH = borrow(Z), borrow(D), borrow(Y), borrow(M), borrow(U), borrow(XH)
     nz = z.shape[0]
@@ -163,7 +161,7 @@ def _integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, stab, rho_const, 
     k_noise = 0
     system_update(t, z, d, m, P, w)
     status = _state_status(z, bound)
-    _emit(0, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0, tol,
+    _emit(np.int64(0), t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0, tol,
           Z, D, Y, M, U, XH)
     if status != 0:
         return status, 1, t
@@ -302,15 +300,11 @@ def _initial_step(t, z, d, m, P, w, k1, k2, zt, rtol, atol, h_max):
 @jit
 def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, rho_const,
               bound, t_window, Z, D, Y, M, U, XH, acc):
-    """Integrate one run (DOPRI5). Returns (status, number of output samples, stop time)."""
+    """Integrate one run (DOPRI5). Returns (status, number of output samples, stop time).
+
+    One compiled function, as for RK4 (``stab`` and ``rho_const`` are unused here).
+    """
     work = np.zeros(9 * z.shape[0] + d.shape[0] + _n_common_work(z.shape[0]))
-    return _integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, bound,
-                      t_window, Z, D, Y, M, U, XH, acc, work)
-
-
-@jit
-def _integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, bound, t_window,
-               Z, D, Y, M, U, XH, acc, work):
     z, d, P, noise, acc = borrow(z), borrow(d), borrow(P), borrow(noise), borrow(acc)
     Z, D, Y, M, U, XH = borrow(Z), borrow(D), borrow(Y), borrow(M), borrow(U), borrow(XH)
     nz = z.shape[0]
@@ -347,11 +341,11 @@ def _integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, bound
     k_noise = 0
     system_update(t, z, d, m, P, w)
     status = _state_status(z, bound)
-    _emit(0, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0, tol,
+    _emit(np.int64(0), t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0, tol,
           Z, D, Y, M, U, XH)
     if status != 0:
         return status, 1, t
-    k_out = 1
+    k_out = np.int64(1)
     system_rhs(t, z, d, m, P, w, k1)
     h = _initial_step(t, z, d, m, P, w, k1, k2, zt, rtol, atol, h_max)
     fsal = True  # k1 holds f(t, z) for the current noise sample and discrete state

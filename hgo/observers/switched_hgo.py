@@ -34,7 +34,12 @@ speed tracking, so a saturated x^1 would only corrupt the position error; pass
 
 Continuous state z = [x^1, ..., x^r]. Parameters (``param_names(r)``)
 p = [r, n_gains, delta, T_d, saturation, saturate_x1, w_index, b0, eps1, eps2,
-     alpha^1 (r), alpha^2 (r), m (r)].
+     alpha^1 (r), alpha^2 (r), m (r), H1 (r), H2 (r), rho1, rho2],
+where H_j = (alpha^j_i / eps_j^i) are the injection gains (27)-(28), precomputed by the
+factory so that ``f`` does no division or power per evaluation, and rho_j the spectral
+radius of the injection matrix with gain H_j (``stiffness`` returns the active one, so RK4
+takes the step of the *active* gain's stability margin). Derived entries: change alpha or
+eps through the factory, not by editing p.
 Discrete state d (``DISC_NAMES``) = [gain (active index 1 or 2), eps (active eps, for
 plotting eps(t)), t_enter (time the error entered the zone, -1 when outside), timer (time
 spent in the zone so far, 0 outside), n_switches (number of gain changes, both directions),
@@ -62,7 +67,8 @@ _TIME_TOL = 1e-12
 def param_names(r: int) -> list[str]:
     """Names of the parameter vector entries of an observer of order r."""
     return (_HEAD + [f"alpha1_{i + 1}" for i in range(r)] + [f"alpha2_{i + 1}" for i in range(r)]
-            + [f"m_{i + 1}" for i in range(r)])
+            + [f"m_{i + 1}" for i in range(r)] + [f"H1_{i + 1}" for i in range(r)]
+            + [f"H2_{i + 1}" for i in range(r)] + ["rho1", "rho2"])
 
 
 @kernel_helper
@@ -90,19 +96,17 @@ def nominal_model(z, y, u, p, r):
 def f(t, z, d, y, u, p, dz):
     """Ahrens & Khalil (26) with H = H1 (27) or H2 (28) as selected by d[0]."""
     r = int(p[0])
-    if d[0] < 1.5:
-        eps = p[8]
-        a0 = _N_HEAD
-    else:
-        eps = p[9]
-        a0 = _N_HEAD + r
+    h0 = _N_HEAD + 3 * r if d[0] < 1.5 else _N_HEAD + 4 * r  # precomputed H1 or H2
     e = y[0] - z[0]
-    phi0 = nominal_model(z, y, u, p, r)
-    scale = 1.0
-    for i in range(r):
-        scale /= eps
-        chain = z[i + 1] if i < r - 1 else phi0
-        dz[i] = chain + p[a0 + i] * scale * e
+    for i in range(r - 1):
+        dz[i] = z[i + 1] + p[h0 + i] * e
+    dz[r - 1] = nominal_model(z, y, u, p, r) + p[h0 + r - 1] * e
+
+
+def stiffness(t, z, d, p):
+    """Spectral radius of the injection matrix of the *active* gain (H1 or H2, from d[0])."""
+    r = int(p[0])
+    return p[_N_HEAD + 5 * r] if d[0] < 1.5 else p[_N_HEAD + 5 * r + 1]
 
 
 def update(t, z, d, y, u, p):
@@ -217,11 +221,15 @@ def switched_hgo(name: str, alpha1: Sequence[float], eps1: float,
     _check(isinstance(w_index, (int, np.integer)) and w_index >= -1,
            f"observer {name}.w_index must be an output channel index >= 0, or -1 for none, "
            f"got {w_index}")
+    h1 = a1 / float(eps1) ** np.arange(1, r + 1)
+    h2 = a2 / e2 ** np.arange(1, r + 1)
+    rho1 = spectral_radius([a1], [eps1], m)
+    rho2 = spectral_radius([a2], [e2], m)
     p = np.concatenate([[r, n_gains, delta, T_d, saturation, float(bool(saturate_x1)),
-                         w_index, input_gain, eps1, e2], a1, a2, m])
-    rho = spectral_radius([a1, a2], [eps1, e2], m)
+                         w_index, input_gain, eps1, e2], a1, a2, m, h1, h2, [rho1, rho2]])
+    rho = max(rho1, rho2)
     d0 = np.array([1.0, eps1, -1.0, 0.0, 0.0, -1.0])
     return Observer(name=name, state_names=[f"xhat{i + 1}" for i in range(r)],
                     disc_names=list(DISC_NAMES), estimated_states=list(range(r)),
                     z0=np.asarray(xhat0, float), d0=d0, p=p, f=f, estimate=estimate,
-                    update=update, spectral_radius=rho)
+                    update=update, spectral_radius=rho, stiffness=stiffness)
