@@ -37,8 +37,8 @@ p = [r, n_gains, delta, T_d, saturation, saturate_x1, w_index, b0, eps1, eps2,
      alpha^1 (r), alpha^2 (r), m (r), H1 (r), H2 (r), rho1, rho2],
 where H_j = (alpha^j_i / eps_j^i) are the injection gains (27)-(28), precomputed by the
 factory so that ``f`` does no division or power per evaluation, and rho_j the spectral
-radius of the injection matrix with gain H_j (``stiffness`` returns the active one, so RK4
-takes the step of the *active* gain's stability margin). Derived entries: change alpha or
+radius of the injection matrix with gain H_j (the opt-in hook ``stiffness`` returns the
+active one). Derived entries: change alpha or
 eps through the factory, not by editing p.
 Discrete state d (``DISC_NAMES``) = [gain (active index 1 or 2), eps (active eps, for
 plotting eps(t)), t_enter (time the error entered the zone, -1 when outside), timer (time
@@ -104,7 +104,15 @@ def f(t, z, d, y, u, p, dz):
 
 
 def stiffness(t, z, d, p):
-    """Spectral radius of the injection matrix of the *active* gain (H1 or H2, from d[0])."""
+    """Spectral radius of the injection matrix of the *active* gain (H1 or H2, from d[0]).
+
+    Opt-in ``Observer.stiffness`` hook (``obs.stiffness = switched_hgo.stiffness``; the
+    factory does not attach it): RK4 then takes the step of the active gain's margin, i.e.
+    much longer steps after a switch to H2. That also samples the switching condition
+    (evaluated after every step) less often, which changes the discrete switching pattern
+    when T_d = 0 (tests/test_ak_claims.py::test_claim1_no_delay_switches_repeatedly), so
+    the paper's experiments keep the constant worst-case ``spectral_radius``.
+    """
     r = int(p[0])
     return p[_N_HEAD + 5 * r] if d[0] < 1.5 else p[_N_HEAD + 5 * r + 1]
 
@@ -232,4 +240,4 @@ def switched_hgo(name: str, alpha1: Sequence[float], eps1: float,
     return Observer(name=name, state_names=[f"xhat{i + 1}" for i in range(r)],
                     disc_names=list(DISC_NAMES), estimated_states=list(range(r)),
                     z0=np.asarray(xhat0, float), d0=d0, p=p, f=f, estimate=estimate,
-                    update=update, spectral_radius=rho, stiffness=stiffness)
+                    update=update, spectral_radius=rho)
