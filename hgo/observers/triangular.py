@@ -33,13 +33,22 @@ LAWS = {"constant": 0, "sign_indefinite": 1, "dead_zone": 2}
 
 
 @kernel_helper
-def gain_rate(law, e, r, n, p1, p2, b):
-    """dr/dt of the chosen law for output error e = y^ - y (Sanfelice & Praly (4), (6))."""
+def _rate(law, e, r, r2n, p1, p2, b):
+    """dr/dt given r2n = r^(2n) (computed by the caller by multiplication): one pow only."""
     if law == 1:
-        return p1 * ((e * e - p2) * r ** (1.0 - 2.0 * b) + p2 / r ** (2 * n))
+        return p1 * ((e * e - p2) * r ** (1.0 - 2.0 * b) + p2 / r2n)
     if law == 2:
         return p1 * max(0.0, e * e - p2) * r ** (1.0 - 2.0 * b)
     return 0.0
+
+
+@kernel_helper
+def gain_rate(law, e, r, n, p1, p2, b):
+    """dr/dt of the chosen law for output error e = y^ - y (Sanfelice & Praly (4), (6))."""
+    rn = 1.0
+    for _ in range(n):
+        rn *= r
+    return _rate(law, e, r, rn * rn, p1, p2, b)
 
 
 def f(t, z, d, y, u, p, dz):
@@ -58,7 +67,7 @@ def f(t, z, d, y, u, p, dz):
             model += M[i * n + j] * z[j]
         chain = z[i + 1] if i < n - 1 else 0.0
         dz[i] = chain + model - K[i] * r_i * e
-    dz[n] = gain_rate(int(p[1]), e, r, n, p[2], p[3], p[4])
+    dz[n] = _rate(int(p[1]), e, r, r_i * r_i, p[2], p[3], p[4])  # r_i = r^n here
 
 
 def estimate(t, z, d, p, xhat):
