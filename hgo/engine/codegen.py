@@ -13,6 +13,7 @@ one warning saying why.
 
 from __future__ import annotations
 
+import dis
 import hashlib
 import importlib.util
 import inspect
@@ -22,6 +23,7 @@ import tempfile
 from pathlib import Path
 from types import ModuleType
 
+from hgo.components import no_update
 from hgo.engine.jit import borrow_function, view_function
 from hgo.engine.system import System
 
@@ -78,9 +80,15 @@ def _header(system: System, names: dict) -> str:
     def obs_args(k: int) -> tuple[str, str, str]:
         return _v("z", *zs[k + 1]), _v("d", *ds[k]), _v("P", *ps[k + 1])
 
+    updates = [o.update for o in system.observers]
+    has_update = any(fn is not no_update for fn in updates)
+    # the update needs u only if some update reads it (u may cost a controller evaluation)
+    update_u = ctrl_obs is not None and any(_reads(fn, 4) for fn in updates
+                                            if fn is not no_update)
     lines = [
         "import math",
         "import numpy as np",
+        f"HAS_UPDATE = {has_update}",
         f"NX = {nx}",
         f"NY = {ny}",
         f"NU = {nu}",
@@ -98,14 +106,17 @@ def _header(system: System, names: dict) -> str:
         f"    for i in range({ny}):",
         "        w[i] += m[i]",
     ]
+    signals_y = lines[-5:]  # the same function up to here: y only
     if ctrl_obs is not None:
         k = ctrl_obs
         zk, dk, pk = obs_args(k)
         xc = _v("w", ny + nu, ny + nu + n_xc)
-        lines += [
-            f"    {names['obs'][k][2]}(t, {zk}, {dk}, {pk}, {xc})",
-            f"    {names['ctrl']}(t, {xc}, {y}, {_v('P', *ps[-1])}, {u})",
-        ]
+        if _reads(system.controller.u, 1):  # (an open-loop input ignores the estimate)
+            lines.append(f"    {names['obs'][k][2]}(t, {zk}, {dk}, {pk}, {xc})")
+        lines.append(f"    {names['ctrl']}(t, {xc}, {y}, {_v('P', *ps[-1])}, {u})")
+    lines += ["", "", "@ijit", signals_y[0].replace("_signals(", "_signals_y("),
+              '    """Measured outputs y = h(x) + m only (w[u] is left as it is)."""',
+              *signals_y[2:]]
     lines += ["", "", "@ijit", "def system_rhs(t, z, d, m, P, w, dz):",
               "    _signals(t, z, d, m, P, w)",
               f"    {names['plant_f']}(t, {_v('z', 0, nx)}, {u}, {_v('P', *ps[0])}, "
@@ -113,9 +124,15 @@ def _header(system: System, names: dict) -> str:
     for k, (f, _, _) in enumerate(names["obs"]):
         zk, dk, pk = obs_args(k)
         lines.append(f"    {f}(t, {zk}, {dk}, {y}, {u}, {pk}, {_v('dz', *zs[k + 1])})")
-    lines += ["", "", "@ijit", "def system_update(t, z, d, m, P, w):",
-              "    _signals(t, z, d, m, P, w)"]
+    lines += ["", "", "@ijit", "def system_update(t, z, d, m, P, w):"]
+    if not has_update:  # no discrete logic: nothing to evaluate between steps
+        lines.append("    return")
+    else:
+        lines.append("    _signals(t, z, d, m, P, w)" if update_u else
+                     "    _signals_y(t, z, d, m, P, w)  # no update reads u")
     for k, (_, upd, _) in enumerate(names["obs"]):
+        if updates[k] is no_update:
+            continue
         zk, dk, pk = obs_args(k)
         lines.append(f"    {upd}(t, {zk}, {dk}, {y}, {u}, {pk})")
     lines += ["", "", "@ijit", "def system_outputs(t, z, d, m, P, w, y, u, xh):",
@@ -134,6 +151,25 @@ def _header(system: System, names: dict) -> str:
             lines.append(f"    rho = max(rho, {fn}(t, {zk}, {dk}, {pk}))")
     lines.append("    return rho")
     return "\n".join(lines) + "\n\n"
+
+
+def _reads(fn: object, index: int) -> bool:
+    """Whether Python function ``fn`` may read its positional argument ``index``.
+
+    Conservative: True unless the bytecode provably never touches that argument (used to
+    skip computing signals, e.g. a controller's input, that a component ignores).
+    """
+    code = getattr(fn, "__code__", None)
+    if code is None or index >= code.co_argcount:
+        return True
+    name = code.co_varnames[index]
+    if name in code.co_cellvars:  # captured by an inner function
+        return True
+    for ins in dis.get_instructions(code):
+        val = ins.argval
+        if val == name or (isinstance(val, tuple) and name in val):
+            return True
+    return False
 
 
 def _sections() -> dict[str, str]:

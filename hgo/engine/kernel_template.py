@@ -378,16 +378,17 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
             for i in range(nz):
                 z[i] = zt[i]
                 k1[i] = k7[i]
-            for i in range(nd):
-                dsave[i] = d[i]
             t = t_new
-            system_update(t, z, d, m, P, w)
-            for i in range(nz):  # the discrete update changed z or d: k7 is stale
-                if z[i] != zt[i]:
-                    fsal = False
-            for i in range(nd):
-                if d[i] != dsave[i]:
-                    fsal = False
+            if HAS_UPDATE:  # (a constant of the generated header: no discrete logic, no code)
+                for i in range(nd):
+                    dsave[i] = d[i]
+                system_update(t, z, d, m, P, w)
+                for i in range(nz):  # the discrete update changed z or d: k7 is stale
+                    if z[i] != zt[i]:
+                        fsal = False
+                for i in range(nd):
+                    if d[i] != dsave[i]:
+                        fsal = False
             status = _state_status(z, bound)
             if status != 0:
                 return status, k_out, t
