@@ -15,8 +15,8 @@ Entity-path convention (one entity per signal, one column per component):
 
 All scalars sit on the timeline ``"sim_time"`` (simulated seconds, sent as
 ``timedelta64[ns]``). Logging is columnar: each :class:`Series` goes to Rerun in
-exactly one ``send_columns`` call, never sample by sample (per-sample ``rr.log``
-is several hundred times slower).
+``send_columns`` calls of up to ``CHUNK_ROWS`` samples each, never sample by sample
+(per-sample ``rr.log`` is several hundred times slower).
 
 Notes
 -----
@@ -135,14 +135,26 @@ def _checked_series(series: Sequence[Series], n: int) -> list[tuple[Series, np.n
     return out
 
 
+CHUNK_ROWS = 1 << 18
+"""Rows per ``send_columns`` call: longer series go out in blocks of this many samples.
+
+Measured (Rerun 0.41, 1e6 samples x 9 scalars in 6 entities, 2-core machine): one call per
+entity 1.6-1.8 s, blocks of 2^18 rows 0.7-0.8 s, mostly in the stream's final flush
+(encoding very large chunks is disproportionately slow); smaller blocks gain nothing more.
+"""
+
+
 def _send_series(rec: rr.RecordingStream, s: Series, values: np.ndarray, time: np.ndarray) -> None:
     colors = [PALETTE[k % len(PALETTE)] for k in range(len(s.names))]
     rec.log(s.entity, rr.SeriesLines(names=list(s.names), colors=colors), static=True)
-    rec.send_columns(
-        s.entity,
-        indexes=[rr.TimeColumn(TIMELINE, duration=time)],
-        columns=rr.Scalars.columns(scalars=values),
-    )
+    n = len(time)
+    for a in range(0, max(n, 1), CHUNK_ROWS):
+        b = min(n, a + CHUNK_ROWS)
+        rec.send_columns(
+            s.entity,
+            indexes=[rr.TimeColumn(TIMELINE, duration=time[a:b])],
+            columns=rr.Scalars.columns(scalars=values[a:b]),
+        )
 
 
 def write_recording(
@@ -155,7 +167,7 @@ def write_recording(
     blueprint: rrb.Blueprint | None = None,
     text: Mapping[str, str] | None = None,
 ) -> Path:
-    """Write one run to an ``.rrd`` file, one ``send_columns`` call per series.
+    """Write one run to an ``.rrd`` file, columnar (``send_columns`` per series).
 
     Parameters
     ----------
