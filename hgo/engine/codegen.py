@@ -89,6 +89,7 @@ def _header(system: System, names: dict) -> str:
         "import math",
         "import numpy as np",
         f"HAS_UPDATE = {has_update}",
+        f"NZ = {system.nz}",
         f"NX = {nx}",
         f"NY = {ny}",
         f"NU = {nu}",

@@ -35,7 +35,7 @@ import numpy as np
 
 @ijit
 def _state_status(z, bound):
-    for i in range(z.shape[0]):
+    for i in range(NZ):
         if not math.isfinite(z[i]):
             return 1
         if abs(z[i]) > bound:
@@ -60,7 +60,7 @@ def _emit(k, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0, tol
     """
     system_outputs(t, z, d, m, P, w, y, u, xh)
     if Z.shape[0] > 0:
-        for i in range(z.shape[0]):
+        for i in range(NZ):
             Z[k, i] = z[i]
         for i in range(d.shape[0]):
             D[k, i] = d[i]
@@ -105,7 +105,7 @@ def integrate_ensemble(Z0, D0, PP, noise, noise_dt, t_end, dt_out, h_max, rtol, 
 # --- section: rk4 ---
 @ijit
 def _rk4_step(t, h, z, d, m, P, w, k1, k2, k3, k4, zt):
-    n = z.shape[0]
+    n = NZ  # a constant of the header: loops unrolled
     system_rhs(t, z, d, m, P, w, k1)
     for i in range(n):
         zt[i] = z[i] + 0.5 * h * k1[i]
@@ -133,7 +133,7 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
     work = np.zeros(5 * z.shape[0] + _n_common_work(z.shape[0]))
     z, d, P, noise, acc = borrow(z), borrow(d), borrow(P), borrow(noise), borrow(acc)
     Z, D, Y, M, U, XH = borrow(Z), borrow(D), borrow(Y), borrow(M), borrow(U), borrow(XH)
-    nz = z.shape[0]
+    nz = NZ
     k1 = view(work, 0, nz)
     k2 = view(work, nz, 2 * nz)
     k3 = view(work, 2 * nz, 3 * nz)
@@ -172,13 +172,19 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
             if abs(t_noise - t_out) <= tol:
                 t_noise = t_out  # coincident events: one boundary, not a sliver of a step
             t_next = min(t_out, t_noise)
+            n_sub = 0  # substeps left in this segment, planned with the stiffness rho_plan
+            rho_plan = -1.0
+            h = 0.0
             while t_next - t > tol:
                 rho = max(rho_const, system_stiffness(t, z, d, P))
-                cap = h_max if rho <= 0.0 else min(h_max, stab / rho)
-                n_sub = max(1, math.ceil((t_next - t) / cap - 1e-9))
-                h = (t_next - t) / n_sub
+                if n_sub <= 0 or rho != rho_plan:  # (re)plan equal substeps to t_next
+                    cap = h_max if rho <= 0.0 else min(h_max, stab / rho)
+                    n_sub = max(1, math.ceil((t_next - t) / cap - 1e-9))
+                    h = (t_next - t) / n_sub
+                    rho_plan = rho
                 _rk4_step(t, h, z, d, m, P, w, k1, k2, k3, k4, zt)
-                t = t_next if n_sub == 1 else t + h
+                n_sub -= 1
+                t = t_next if n_sub <= 0 else t + h
                 system_update(t, z, d, m, P, w)
                 status = _state_status(z, bound)
                 if status != 0:
@@ -229,7 +235,7 @@ def _dopri5_trial(t, h, z, d, m, P, w, k1, k2, k3, k4, k5, k6, k7, zt, rtol, ato
 
     Returns the RMS error norm (<= 1: accept).
     """
-    n = z.shape[0]
+    n = NZ  # a constant of the header: loops unrolled
     for i in range(n):
         zt[i] = z[i] + h * A21 * k1[i]
     system_rhs(t + C2 * h, zt, d, m, P, w, k2)
@@ -266,7 +272,7 @@ def _dense(th, h, z, k1, k3, k4, k5, k6, k7, zo):
     b5 = _poly(P5, th)
     b6 = _poly(P6, th)
     b7 = _poly(P7, th)
-    for i in range(z.shape[0]):
+    for i in range(NZ):
         zo[i] = z[i] + h * (b1 * k1[i] + b3 * k3[i] + b4 * k4[i] + b5 * k5[i] + b6 * k6[i]
                             + b7 * k7[i])
 
@@ -307,7 +313,7 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
     work = np.zeros(9 * z.shape[0] + d.shape[0] + _n_common_work(z.shape[0]))
     z, d, P, noise, acc = borrow(z), borrow(d), borrow(P), borrow(noise), borrow(acc)
     Z, D, Y, M, U, XH = borrow(Z), borrow(D), borrow(Y), borrow(M), borrow(U), borrow(XH)
-    nz = z.shape[0]
+    nz = NZ
     nd = d.shape[0]
     k1 = view(work, 0, nz)
     k2 = view(work, nz, 2 * nz)

@@ -155,6 +155,8 @@ def simulate(system: System, solver: SolverSettings, noise: Noise,
     n_out = int(round(solver.t_end / solver.dt_out)) + 1
     ny, nu = noise.samples.shape[1], len(system.plant.input_names)
     z = (system.z0() if z0 is None else np.asarray(z0, float)).copy()
+    if z.shape != (system.nz,):  # the kernel is generated for this state length
+        raise ValueError(f"z0 must have shape ({system.nz},), got {z.shape}")
     d = system.d0()
     P = system.params() if params is None else np.asarray(params, float)
     rec = [np.zeros((n_out, k)) for k in (system.nz, system.nd, ny, ny, nu, system.nxh)]
@@ -179,6 +181,8 @@ def simulate_ensemble(system: System, solver: SolverSettings, noise: list[Noise]
     params = np.ascontiguousarray(params, float)
     z0 = np.ascontiguousarray(z0, float)
     n = params.shape[0]
+    if z0.shape != (n, system.nz):
+        raise ValueError(f"z0 must have shape ({n}, {system.nz}), got {z0.shape}")
     members = noise if isinstance(noise, list) else [noise] * n
     samples = np.ascontiguousarray(np.stack([m.samples for m in members]), float)
     d0 = np.tile(system.d0(), (n, 1))
