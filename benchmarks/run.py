@@ -1,6 +1,6 @@
 """Benchmark of the hgo engine against solve_ivp and hand-written numba kernels (issue 5).
 
-    python benchmarks/run.py           # full run (~10 min on 2 cores)
+    python benchmarks/run.py           # full run (~2 min here, < 10 min on 2 cores)
     python benchmarks/run.py --quick   # reduced run (< 60 s after compilation)
 
 Times are medians of >= 3 runs after compilation (CPU-bound; wall clock), ratios are
