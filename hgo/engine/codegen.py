@@ -186,14 +186,35 @@ def _sections() -> dict[str, str]:
     return parts
 
 
+def _source_files(fn: object) -> set[str]:
+    """The file defining ``fn`` and the files of the compiled helpers it calls.
+
+    numba's on-disk cache of the kernel only checks the kernel's own file, so the kernel's
+    name must change whenever a component *or a helper it calls* changes: hashing whole
+    files (not only the function's source) covers helpers in the same module and in the
+    modules of the ``kernel_helper`` functions it references.
+    """
+    files = set()
+    for obj in [fn] + [v for v in getattr(fn, "__globals__", {}).values()
+                       if hasattr(v, "py_func")]:
+        target = getattr(obj, "py_func", obj)
+        try:
+            files.add(inspect.getsourcefile(target) or "")
+        except TypeError:
+            continue
+    return {f for f in files if f}
+
+
 def _identity(fn: object) -> str:
     """Module, name and source hash of a component function (part of the kernel's name)."""
-    try:
-        src = inspect.getsource(fn)
-    except (OSError, TypeError):
-        src = repr(fn)
-    digest = hashlib.sha256(src.encode()).hexdigest()[:16]
-    return f"# {getattr(fn, '__module__', '?')}.{getattr(fn, '__qualname__', '?')} {digest}"
+    digest = hashlib.sha256()
+    files = sorted(_source_files(fn))
+    for path in files:
+        digest.update(Path(path).read_bytes())
+    if not files:
+        digest.update(repr(fn).encode())
+    name = f"{getattr(fn, '__module__', '?')}.{getattr(fn, '__qualname__', '?')}"
+    return f"# {name} {digest.hexdigest()[:16]}"
 
 
 def kernel_source(system: System, method: str = "dopri5") -> tuple[str, dict[str, object]]:
