@@ -50,6 +50,38 @@ def _n_common_work(nz):
 
 
 @ijit
+def _common_views(work, o):
+    """Views of the work vector shared by the integrators, from offset o:
+    w, y, u, xh, sq, prev, win, m (lengths as in ``_n_common_work``)."""
+    w = view(work, o, o + NW)
+    y = view(work, o + NW, o + NW + NY)
+    u = view(work, o + NW + NY, o + NW + NY + NU)
+    xh = view(work, o + NW + NY + NU, o + NW + NY + NU + NXH)
+    o += NW + NY + NU + NXH
+    sq = view(work, o, o + NXH + NOBS)
+    prev = view(work, o + NXH + NOBS, o + 2 * (NXH + NOBS))
+    win = view(work, o + 2 * (NXH + NOBS), o + 2 * (NXH + NOBS) + 1)
+    m = view(work, o + 2 * (NXH + NOBS) + 1, o + 2 * (NXH + NOBS) + 1 + NY)
+    return w, y, u, xh, sq, prev, win, m
+
+
+@ijit
+def _start(z, d, m, P, w, y, u, xh, sq, prev, acc, win, noise, bound, dt_out, t_win0, tol,
+           Z, D, Y, M, U, XH):
+    """State at t = 0: first noise sample, cleared integrals, discrete update, output 0.
+    Returns the state status."""
+    for i in range(NY):
+        m[i] = noise[0, i]
+    for j in range(acc.shape[0]):
+        acc[j] = 0.0
+    system_update(0.0, z, d, m, P, w)
+    status = _state_status(z, bound)
+    _emit(np.int64(0), 0.0, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0, tol,
+          Z, D, Y, M, U, XH)
+    return status
+
+
+@ijit
 def _emit(k, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0, tol,
           Z, D, Y, M, U, XH):
     """Output sample k at time t: record it, and add it to the trailing-window integrals.
@@ -139,30 +171,15 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
     k3 = view(work, 2 * nz, 3 * nz)
     k4 = view(work, 3 * nz, 4 * nz)
     zt = view(work, 4 * nz, 5 * nz)
-    o = 5 * nz
-    w = view(work, o, o + NW)
-    y = view(work, o + NW, o + NW + NY)
-    u = view(work, o + NW + NY, o + NW + NY + NU)
-    xh = view(work, o + NW + NY + NU, o + NW + NY + NU + NXH)
-    o += NW + NY + NU + NXH
-    sq = view(work, o, o + NXH + NOBS)
-    prev = view(work, o + NXH + NOBS, o + 2 * (NXH + NOBS))
-    win = view(work, o + 2 * (NXH + NOBS), o + 2 * (NXH + NOBS) + 1)
-    m = view(work, o + 2 * (NXH + NOBS) + 1, o + 2 * (NXH + NOBS) + 1 + NY)
-    for i in range(NY):
-        m[i] = noise[0, i]
+    w, y, u, xh, sq, prev, win, m = _common_views(work, 5 * nz)
     n_noise = noise.shape[0]
     n_out = int(round(t_end / dt_out)) + 1
     tol = 1e-12 * max(1.0, t_end)
     t_win0 = t_end - t_window
-    for j in range(acc.shape[0]):
-        acc[j] = 0.0
     t = 0.0
     k_noise = 0
-    system_update(t, z, d, m, P, w)
-    status = _state_status(z, bound)
-    _emit(np.int64(0), t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0, tol,
-          Z, D, Y, M, U, XH)
+    status = _start(z, d, m, P, w, y, u, xh, sq, prev, acc, win, noise, bound, dt_out,
+                    t_win0, tol, Z, D, Y, M, U, XH)
     if status != 0:
         return status, 1, t
     for k_out in range(1, n_out):
@@ -325,30 +342,15 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
     zt = view(work, 7 * nz, 8 * nz)
     zo = view(work, 8 * nz, 9 * nz)
     dsave = view(work, 9 * nz, 9 * nz + nd)
-    o = 9 * nz + nd
-    w = view(work, o, o + NW)
-    y = view(work, o + NW, o + NW + NY)
-    u = view(work, o + NW + NY, o + NW + NY + NU)
-    xh = view(work, o + NW + NY + NU, o + NW + NY + NU + NXH)
-    o += NW + NY + NU + NXH
-    sq = view(work, o, o + NXH + NOBS)
-    prev = view(work, o + NXH + NOBS, o + 2 * (NXH + NOBS))
-    win = view(work, o + 2 * (NXH + NOBS), o + 2 * (NXH + NOBS) + 1)
-    m = view(work, o + 2 * (NXH + NOBS) + 1, o + 2 * (NXH + NOBS) + 1 + NY)
-    for i in range(NY):
-        m[i] = noise[0, i]
+    w, y, u, xh, sq, prev, win, m = _common_views(work, 9 * nz + nd)
     n_noise = noise.shape[0]
     n_out = int(round(t_end / dt_out)) + 1
     tol = 1e-12 * max(1.0, t_end)
     t_win0 = t_end - t_window
-    for j in range(acc.shape[0]):
-        acc[j] = 0.0
     t = 0.0
     k_noise = 0
-    system_update(t, z, d, m, P, w)
-    status = _state_status(z, bound)
-    _emit(np.int64(0), t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0, tol,
-          Z, D, Y, M, U, XH)
+    status = _start(z, d, m, P, w, y, u, xh, sq, prev, acc, win, noise, bound, dt_out,
+                    t_win0, tol, Z, D, Y, M, U, XH)
     if status != 0:
         return status, 1, t
     k_out = np.int64(1)
