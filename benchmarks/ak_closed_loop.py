@@ -1,0 +1,52 @@
+"""Cost of the Ahrens & Khalil closed loop per simulated second (issue 4, numerics).
+
+    python benchmarks/ak_closed_loop.py [--horizon 20]
+
+Runs the ``ak_fig1`` preset (DC motor, switched-gain HGO, speed controller, encoder noise
+held 0.8 ms, RK4 at half the stability cap of eps1 = 5e-4) through hgo's normal path
+(Hydra compose -> build -> simulate) for the given horizon, after one compiling run, and
+prints the median wall time of 3 runs per simulated second, the number of RK4 substeps
+and of gain switches.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+import numpy as np
+from hydra import compose, initialize_config_dir
+
+from hgo.config import register_configs
+from hgo.runner import build, run_experiment
+
+CONF = str(Path(__file__).resolve().parent.parent / "conf")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--horizon", type=float, default=20.0, help="simulated seconds")
+    args = parser.parse_args()
+    register_configs()
+    with initialize_config_dir(version_base="1.3", config_dir=CONF):
+        cfg = compose("config", overrides=["experiment=ak_fig1",
+                                           f"solver.t_end={args.horizon}"])
+    exp = build(cfg)
+    run_experiment(exp)  # compile (or load the cached kernel)
+    times = []
+    for _ in range(3):
+        t0 = time.perf_counter()
+        traj = run_experiment(exp)
+        times.append(time.perf_counter() - t0)
+    wall = float(np.median(times))
+    switches = traj.d[-1, exp.system.observers[0].disc_names.index("n_switches")]
+    h = exp.solver.effective_h_max(exp.system.spectral_radius())
+    print(f"ak_fig1 closed loop, horizon {args.horizon:g} s, RK4 substep <= {h:.3g} s "
+          f"({args.horizon / h:.3g} substeps), status {traj.message}, "
+          f"gain switches {switches:g}")
+    print(f"wall {wall:.3f} s (median of 3) = {wall / args.horizon:.4f} s per simulated second")
+
+
+if __name__ == "__main__":
+    main()
