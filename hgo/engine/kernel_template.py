@@ -66,10 +66,16 @@ def _common_views(work, o):
 
 
 @ijit
-def _start(z, d, m, P, w, y, u, xh, sq, prev, acc, win, noise, bound, dt_out, t_win0, tol,
+def _start(z, d, m, P, w, y, u, xh, sq, prev, acc, win, noise, bound, t_end, dt_out, t_window,
            Z, D, Y, M, U, XH):
     """State at t = 0: first noise sample, cleared integrals, discrete update, output 0.
-    Returns the state status."""
+
+    Returns the state status, the number of output samples, the time tolerance of event
+    comparisons and the start of the metrics window.
+    """
+    n_out = int(round(t_end / dt_out)) + 1
+    tol = 1e-12 * max(1.0, t_end)
+    t_win0 = t_end - t_window
     for i in range(NY):
         m[i] = noise[0, i]
     for j in range(acc.shape[0]):
@@ -78,7 +84,7 @@ def _start(z, d, m, P, w, y, u, xh, sq, prev, acc, win, noise, bound, dt_out, t_
     status = _state_status(z, bound)
     _emit(np.int64(0), 0.0, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0, tol,
           Z, D, Y, M, U, XH)
-    return status
+    return status, n_out, tol, t_win0
 
 
 @ijit
@@ -173,13 +179,10 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
     zt = view(work, 4 * nz, 5 * nz)
     w, y, u, xh, sq, prev, win, m = _common_views(work, 5 * nz)
     n_noise = noise.shape[0]
-    n_out = int(round(t_end / dt_out)) + 1
-    tol = 1e-12 * max(1.0, t_end)
-    t_win0 = t_end - t_window
     t = 0.0
     k_noise = 0
-    status = _start(z, d, m, P, w, y, u, xh, sq, prev, acc, win, noise, bound, dt_out,
-                    t_win0, tol, Z, D, Y, M, U, XH)
+    status, n_out, tol, t_win0 = _start(z, d, m, P, w, y, u, xh, sq, prev, acc, win, noise,
+                                        bound, t_end, dt_out, t_window, Z, D, Y, M, U, XH)
     if status != 0:
         return status, 1, t
     for k_out in range(1, n_out):
@@ -344,13 +347,10 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
     dsave = view(work, 9 * nz, 9 * nz + nd)
     w, y, u, xh, sq, prev, win, m = _common_views(work, 9 * nz + nd)
     n_noise = noise.shape[0]
-    n_out = int(round(t_end / dt_out)) + 1
-    tol = 1e-12 * max(1.0, t_end)
-    t_win0 = t_end - t_window
     t = 0.0
     k_noise = 0
-    status = _start(z, d, m, P, w, y, u, xh, sq, prev, acc, win, noise, bound, dt_out,
-                    t_win0, tol, Z, D, Y, M, U, XH)
+    status, n_out, tol, t_win0 = _start(z, d, m, P, w, y, u, xh, sq, prev, acc, win, noise,
+                                        bound, t_end, dt_out, t_window, Z, D, Y, M, U, XH)
     if status != 0:
         return status, 1, t
     k_out = np.int64(1)
