@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Mapping
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -44,6 +45,20 @@ def stack_members(systems: list[System]) -> tuple[np.ndarray, np.ndarray]:
     params = np.stack([s.params() for s in systems])
     z0 = np.stack([s.z0() for s in systems])
     return params, z0
+
+
+def stiffest_envelope(systems: list[System]) -> System:
+    """Member 0 with each component's ``spectral_radius`` raised to its largest over members.
+
+    One call of the ensemble kernel caps every member's RK4 steps with the constant spectral
+    radii of the system it is given: member 0's alone would let a stiffer member (e.g. a
+    larger drawn ``|nu1|``) step past RK4's stability limit. Only the step cap changes.
+    """
+    ref = systems[0]
+    plant = replace(ref.plant, spectral_radius=max(s.plant.spectral_radius for s in systems))
+    observers = [replace(o, spectral_radius=max(s.observers[k].spectral_radius for s in systems))
+                 for k, o in enumerate(ref.observers)]
+    return System(plant, observers, ref.controller)
 
 
 # --- ensembles from a Hydra config (``ensemble.size > 0``) ------------------------------

@@ -29,7 +29,7 @@ from omegaconf import DictConfig
 
 from hgo.engine.simulate import STATUS, simulate, simulate_ensemble
 from hgo.engine.system import System
-from hgo.ensemble import draw_members, member_nodes, stack_members
+from hgo.ensemble import draw_members, member_nodes, stack_members, stiffest_envelope
 from hgo.figures.ensemble import metric_histograms
 from hgo.metrics import window_means
 from hgo.noise import NoiseModel
@@ -122,7 +122,7 @@ def run_ensemble(cfg: DictConfig, out_dir: str | Path) -> EnsembleResult:
     params, z0 = stack_members(systems)
     ny = len(systems[0].plant.output_names)
     noise = [noise_model.sample(solver.t_end, ny, seed + i) for i in range(size)]
-    out = _simulate_chunks(systems[0], solver, noise, params, z0)
+    out = _simulate_chunks(stiffest_envelope(systems), solver, noise, params, z0)
 
     members = pd.DataFrame(_member_rows(systems, draws, out))
     table = pd.concat([members, _aggregate(members)], ignore_index=True)

@@ -174,7 +174,9 @@ def simulate_ensemble(system: System, solver: SolverSettings, noise: list[Noise]
     """Integrate many runs in parallel (numba ``prange``); metrics only, no trajectories.
 
     ``params`` (M, n_p) and ``z0`` (M, n_z) give one row per member; ``noise`` is one
-    :class:`Noise` per member (same ``dt``) or one shared by all.
+    :class:`Noise` per member (same ``dt``) or one shared by all. ``system`` serves every
+    member: its kernel, its ``d0`` and, for RK4, its constant spectral radii cap the steps
+    of all (see :func:`hgo.ensemble.stiffest_envelope`).
     Returns ``acc`` (M, n_acc) window integrals, ``status`` (M,) and ``t_stop`` (M,).
     """
     solver.validate()
