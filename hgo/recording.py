@@ -6,7 +6,7 @@ Entity-path convention (one entity per signal, one column per component):
 ``/plant/x``               plant state, columns ``x1 .. xn``
 ``/observer/<name>/xhat``  estimate of observer ``<name>`` (e.g. ``sp6``)
 ``/observer/<name>/r``     internal/auxiliary state of observer ``<name>``
-``/error/<name>``          estimation error ``x - xhat`` of observer ``<name>``
+``/error/<name>``          estimation error ``xhat - x`` of observer ``<name>``
 ``/measurement/y``         measured output (noise included)
 ``/measurement/noise``     measurement noise alone
 ``/input/u``               plant input
