@@ -31,7 +31,7 @@ from hgo.engine.simulate import STATUS, simulate, simulate_ensemble
 from hgo.engine.system import System
 from hgo.ensemble import draw_members, member_nodes, stack_members, stiffest_envelope
 from hgo.figures.ensemble import metric_histograms
-from hgo.metrics import window_means
+from hgo.metrics import metric_row, window_means
 from hgo.noise import NoiseModel
 from hgo.recording import write_recording
 from hgo.runner import (
@@ -76,13 +76,9 @@ def _member_rows(systems, draws, out) -> list[dict]:
         drawn = {k: (v[i].tolist() if v.ndim > 1 else float(v[i])) for k, v in draws.items()}
         bounds = {o.name: o.bounds for o in system.observers}
         for (obs, quantity), value in window_means(system, out["acc"][i]).items():
-            bound = bounds[obs].get(quantity, np.nan)
-            value = value if st == 0 else np.nan
-            rows.append({"member": str(i), "observer": obs, "quantity": quantity,
-                         "empirical": value, "bound": bound,
-                         "ratio": value / bound if np.isfinite(bound) else np.nan,
-                         "holds": bool(value <= bound) if np.isfinite(bound) and st == 0
-                         else None,
+            value = float(value) if st == 0 else np.nan
+            rows.append({"member": str(i),
+                         **metric_row(obs, quantity, value, bounds[obs].get(quantity)),
                          "status": "ok" if st == 0 else "failed",
                          "t_stop": float(out["t_stop"][i]), "message": STATUS[st], **drawn})
     return rows

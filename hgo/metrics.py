@@ -23,7 +23,8 @@ COLUMNS = ["observer", "postprocess", "quantity", "empirical", "bound", "ratio",
            "status", "t_stop", "message"]
 
 
-def _row(observer: str, quantity: str, value: float, bound: float | None) -> dict:
+def metric_row(observer: str, quantity: str, value: float, bound: float | None) -> dict:
+    """One metric row: value against its bound (None or NaN: no bound from the papers)."""
     bound = math.nan if bound is None else float(bound)
     ratio = value / bound if bound and math.isfinite(bound) else math.nan
     holds = bool(value <= bound) if math.isfinite(bound) and math.isfinite(value) else None
@@ -62,9 +63,9 @@ def metrics_table(system: System, acc: np.ndarray, status: int, t_stop: float,
         if status != 0:
             value = math.nan
         bound = extra_bounds.get((name, quantity), observers[name].bounds.get(quantity))
-        rows.append({**_row(name, quantity, float(value), bound), "postprocess": ""})
+        rows.append({**metric_row(name, quantity, float(value), bound), "postprocess": ""})
     for extra in extra_rows or []:
-        row = _row(extra["observer"], extra["quantity"], float(extra["empirical"]),
+        row = metric_row(extra["observer"], extra["quantity"], float(extra["empirical"]),
                    extra.get("bound"))
         rows.append({**extra, **row})
     table = pd.DataFrame(rows)

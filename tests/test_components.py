@@ -78,3 +78,21 @@ def test_bad_noise_config_is_named(kwargs, words):
     with pytest.raises(ValueError, match=None) as err:
         noise_model(**kwargs)
     assert words in str(err.value)
+
+
+def test_noise_of_the_wrong_width_is_refused_before_the_kernel():
+    """The kernel indexes noise by the plant's outputs: a mismatch must not reach it."""
+    from hgo.engine.simulate import Noise, simulate_ensemble
+
+    plant = chain_plant(2)
+    obs = triangular_hgo("hgo", K=[2, 1], xhat0=[0.0, 0.0], law="constant")
+    system = System(plant, [obs])
+    solver = SolverSettings(t_end=1.0, dt_out=0.1)
+    with pytest.raises(ValueError, match=r"noise 0: samples must have shape \(n >= 1, 1\)"):
+        simulate(system, solver, Noise(np.zeros((11, 2)), 0.1))
+    noises = [Noise(np.zeros((11, 1)), 0.1), Noise(np.zeros((21, 1)), 0.05)]
+    params, z0 = np.tile(system.params(), (2, 1)), np.tile(system.z0(), (2, 1))
+    with pytest.raises(ValueError, match="sample period 0.05 differs"):
+        simulate_ensemble(system, solver, noises, params, z0)
+    with pytest.raises(ValueError, match="1 members' noise for 2 parameter rows"):
+        simulate_ensemble(system, solver, noises[:1], params, z0)

@@ -147,10 +147,24 @@ def _common_args(system: System, solver: SolverSettings, noise: Noise) -> tuple:
             float(solver.state_bound), float(solver.t_window))
 
 
+def _check_noise(system: System, noises: list[Noise]) -> None:
+    """The kernel indexes noise samples by the plant's outputs and one sample period:
+    a wrong width or mixed periods must fail here, not read out of bounds."""
+    ny = len(system.plant.output_names)
+    for k, noise in enumerate(noises):
+        if noise.samples.ndim != 2 or noise.samples.shape[1] != ny or not len(noise.samples):
+            raise ValueError(f"noise {k}: samples must have shape (n >= 1, {ny}) for a plant "
+                             f"with {ny} outputs, got {noise.samples.shape}")
+        if noise.dt != noises[0].dt:
+            raise ValueError(f"noise {k}: sample period {noise.dt} differs from member 0's "
+                             f"{noises[0].dt}; an ensemble shares one period")
+
+
 def simulate(system: System, solver: SolverSettings, noise: Noise,
              params: np.ndarray | None = None, z0: np.ndarray | None = None) -> Trajectory:
     """Integrate one run and record every signal on the grid ``k * solver.dt_out``."""
     solver.validate()
+    _check_noise(system, [noise])
     args = _common_args(system, solver, noise)
     n_out = int(round(solver.t_end / solver.dt_out)) + 1
     ny, nu = noise.samples.shape[1], len(system.plant.input_names)
@@ -186,6 +200,9 @@ def simulate_ensemble(system: System, solver: SolverSettings, noise: list[Noise]
     if z0.shape != (n, system.nz):
         raise ValueError(f"z0 must have shape ({n}, {system.nz}), got {z0.shape}")
     members = noise if isinstance(noise, list) else [noise] * n
+    if len(members) != n:
+        raise ValueError(f"noise: {len(members)} members' noise for {n} parameter rows")
+    _check_noise(system, members)
     samples = np.ascontiguousarray(np.stack([m.samples for m in members]), float)
     d0 = np.tile(system.d0(), (n, 1))
     acc = np.zeros((n, system.nxh + len(system.observers) + 1))
