@@ -106,5 +106,3 @@ def register_ak_configs() -> None:
     cs.store(group="schema/controller", name="open_loop", node=OpenLoopConf)
     cs.store(group="schema/postprocess", name="ak_metrics", node=AKMetricsConf)
 
-
-register = register_ak_configs

@@ -87,5 +87,3 @@ def register_sp_configs() -> None:
     cs.store(group="schema/postprocess", name="oscillation", node=OscillationConf)
     cs.store(group="schema/postprocess", name="sp_bounds", node=SPBoundsConf)
 
-
-register = register_sp_configs
