@@ -32,11 +32,12 @@ import numpy as np
 
 from hgo.engine.simulate import Trajectory
 from hgo.engine.system import System
+from hgo.observers.switched_hgo import DISC_NAMES
 from hgo.postprocess import PostOutput
 from hgo.recording import Series
 
 TRACKING = "/ak/tracking"
-_SWITCH_NAMES = ("gain", "eps", "t_enter", "timer", "n_switches", "t_switch")
+_SWITCH_NAMES = tuple(DISC_NAMES)
 
 
 def tracking_error(system: System, t: np.ndarray, x2: np.ndarray):
@@ -50,8 +51,11 @@ def tracking_error(system: System, t: np.ndarray, x2: np.ndarray):
     return rd, x2 - rd
 
 
-def switch_log(t: np.ndarray, d: np.ndarray) -> dict[str, float]:
-    """n_switches, first entry, first/last switch and zone time at the first switch."""
+def switch_log(d: np.ndarray) -> dict[str, float]:
+    """n_switches, first entry, first/last switch and zone time at the first switch.
+
+    ``d``: the observer's discrete state on the output grid, columns ``DISC_NAMES``.
+    """
     g, _, t_enter, _, n_sw, t_sw = range(6)
     out = {"n_switches": float(d[-1, n_sw]), "t_enter_first": math.nan,
            "t_switch_first": math.nan, "t_switch_last": math.nan,
@@ -107,7 +111,7 @@ class AKMetrics:
         for obs, (da, db), (xa, xb) in zip(system.observers, system.d_slices,
                                            system.xh_slices, strict=True):
             if tuple(obs.disc_names) == _SWITCH_NAMES:
-                for quantity, value in switch_log(t, traj.d[:, da:db]).items():
+                for quantity, value in switch_log(traj.d[:, da:db]).items():
                     out.rows.append({"observer": obs.name, "quantity": quantity,
                                      "empirical": value, "closed_loop": loop})
             err = traj.xh[:, xa:xb] - x[:, obs.estimated_states]
