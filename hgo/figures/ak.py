@@ -28,16 +28,10 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-import hgo.figures  # noqa: F401  (selects the Agg backend)
+from hgo.figures import save_figure
 from hgo.postprocess.ak import TRACKING
 
 OBS_COLOURS = {"switched": "tab:blue", "fixed_eps2": "tab:green", "fixed_eps1": "tab:red"}
-
-
-def _save(fig, path: str | Path) -> None:
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
 def _tracking(result) -> np.ndarray:
@@ -79,7 +73,7 @@ def fig1(result, path) -> None:
     ax2.set_yscale("log")
     ax2.set_ylabel("eps")
     ax2.set_xlabel("t (s)")
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def _e2_axes(ax, t, e2, label, colour, window=None) -> None:
@@ -97,7 +91,7 @@ def fig2(result, path) -> None:
     _e2_axes(plt.subplots(figsize=(8, 3))[1], t, _tracking(result)[:, 2],
              f"Ahrens & Khalil Fig. 2 - e2, {_label(obs)}", OBS_COLOURS.get(obs.name, "k"))
     plt.gca().set_xlabel("t (s)")
-    _save(plt.gcf(), path)
+    save_figure(plt.gcf(), path)
 
 
 def _late_start(result, late_window: float = 1.0) -> float:
@@ -114,7 +108,7 @@ def fig3(result, path) -> None:
              f"Ahrens & Khalil Fig. 3 - steady-state e2, {_label(obs)}",
              OBS_COLOURS.get(obs.name, "k"), window=_late_start(result))
     plt.gca().set_xlabel("t (s)")
-    _save(plt.gcf(), path)
+    save_figure(plt.gcf(), path)
 
 
 # --- sweeps -------------------------------------------------------------------------------
@@ -173,7 +167,7 @@ def sweep_figure(sweep: str | Path, which: str = "fig2", late_window: float = 1.
              "fig3": "Ahrens & Khalil Fig. 3: steady-state e2"}.get(which, which)
     fig.suptitle(title)
     path = sweep / f"{which}.png"
-    _save(fig, path)
+    save_figure(fig, path)
     return path, skipped
 
 
@@ -246,7 +240,7 @@ def tradeoff_figure(path, eps: np.ndarray, mu: np.ndarray, bound: np.ndarray, r:
     ax2.set_ylabel("eps*")
     ax2.legend(fontsize=8)
     ax2.set_title("optimal eps vs noise amplitude", fontsize=9)
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -261,10 +255,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"skipped {line}", file=sys.stderr)
     print(f"wrote {path}" if path else "no job could be read")
     return 0 if path else 1
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
 
 
 def _tradeoff_point(job: Path) -> dict:
@@ -376,3 +366,7 @@ class TradeoffReport(Callback):
         for line in report["skipped"]:
             print(f"ak_tradeoff: skipped {line}", file=sys.stderr)
         print(report["paths"]["md"].read_text())
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -4,12 +4,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
+from hgo.figures import save_figure
 
 
 def metric_histograms(members: pd.DataFrame, path: Path) -> Path:
@@ -29,7 +28,5 @@ def metric_histograms(members: pd.DataFrame, path: Path) -> Path:
             ax.legend(loc="upper right", fontsize=8)
         ax.set_title(f"{obs}: {quantity} ({len(values)} members)", fontsize=9)
         ax.set_xlabel("log10(value)")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path)
     return path

@@ -10,12 +10,11 @@ Fig. 3 (three values of p2, three runs) is drawn by ``experiments/aggregate.py``
 from __future__ import annotations
 
 from collections.abc import Sequence
-from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
 
-import hgo.figures  # noqa: F401  (selects the Agg backend)
+from hgo.figures import save_figure
 from hgo.recording import Series
 
 # the paper's colours: Fig. 1 blue/red, Fig. 3 blue/red/green, Figs. 4-5 green/black
@@ -38,12 +37,6 @@ def _label(obs) -> str:
     if par is not None and par["kind"] == "collection":
         return f"{obs.name}: average of {par['N']} copies (21), p2 = {par['p2']:g}"
     return obs.name
-
-
-def _save(fig, path: str | Path) -> None:
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
 def _estimates_and_gain(result, path, title: str) -> None:
@@ -75,7 +68,7 @@ def _estimates_and_gain(result, path, title: str) -> None:
     ax.legend(fontsize=8, loc="best")
     ax.grid(alpha=0.3)
     axes[0].set_title(title)
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def fig1(result, path) -> None:
@@ -115,7 +108,7 @@ def fig3_compare(runs: Sequence[tuple[str, dict[str, np.ndarray]]], path,
         ax.legend(fontsize=8, loc="upper right")
     axes[0].set_title("Sanfelice & Praly Fig. 3: law (6), p1 = 4/3, nu1 = 3, zero plant solution")
     axes[2].set_xlabel("t [s]")
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def fig4(result, path) -> None:
@@ -144,7 +137,7 @@ def fig4(result, path) -> None:
         ax.grid(alpha=0.3)
     ax.set_xlabel("t [s]")
     fig.suptitle("Sanfelice & Praly Fig. 4: notch filter on the estimates")
-    _save(fig, path)
+    save_figure(fig, path)
 
 
 def fig5(result, path, zoom: float = 10.0) -> None:
@@ -187,4 +180,4 @@ def fig5(result, path, zoom: float = 10.0) -> None:
         ax.legend(fontsize=7, loc="upper right")
         ax.grid(alpha=0.3)
     fig.suptitle("Sanfelice & Praly Fig. 5: collection (21) and its average")
-    _save(fig, path)
+    save_figure(fig, path)
