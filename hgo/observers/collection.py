@@ -167,7 +167,7 @@ def copy_states(obs: Observer, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def collection_params(obs: Observer) -> dict:
-    """The law-(6) parameters shared by the copies: n, p1, p2, b, K~."""
+    """The copy count N and the law-(6) parameters shared by the copies: n, p1, p2, b, K~."""
     N, n = int(obs.p[0]), int(obs.p[1])
     return {"N": N, "n": n, "p1": float(obs.p[2]), "p2": float(obs.p[3]), "b": float(obs.p[4]),
             "K": np.asarray(obs.p[HEAD:HEAD + n], float)}

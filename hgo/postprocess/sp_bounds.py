@@ -46,7 +46,7 @@ PAPER_P = [[1.0, -0.5], [-0.5, 0.5]]
 
 
 def law6_parameters(obs) -> dict | None:
-    """n, p1, p2, b, K~ of a law-(6) observer (triangular or collection), else None."""
+    """kind, n, p1, p2, b, K~ (and N for a collection) of a law-(6) observer, else None."""
     if obs.f is triangular.f:
         if int(obs.p[1]) != triangular.LAWS["sign_indefinite"]:
             return None
