@@ -74,8 +74,10 @@ class SPBounds:
     def _mismatch(self, system: System) -> tuple[np.ndarray, np.ndarray]:
         if self.gamma is not None and self.L is not None:
             return self.gamma, self.L
-        if system.plant.name == "sp_linear":
-            return sp_linear.mismatch_constants(*system.plant.p[:2])
+        if system.plant.name == "sp_linear":  # what the config leaves out comes from (18)
+            gamma, L = sp_linear.mismatch_constants(*system.plant.p[:2])
+            return (gamma if self.gamma is None else self.gamma,
+                    L if self.L is None else self.L)
         raise ValueError("postprocess sp_bounds: give gamma and L (Lemma 2.1) for plant "
                          f"'{system.plant.name}'")
 
