@@ -192,7 +192,7 @@ def switched_hgo(name: str, alpha1: Sequence[float], eps1: float,
     after the switch (``alpha2`` defaults to ``alpha1``); ``eps2=None`` gives a fixed-gain
     observer (8)-(9). ``delta``: half-width of the switching zone [-delta, delta];
     ``T_d``: delay timer (s). ``model`` (m_1..m_r), ``input_gain`` (b0) and ``w_index``
-    define phi0 = sum m_i x^_i + b0 y[w_index] u (``w_index=-1``: no w u term); the
+    define phi0 = sum m_i sat(x^_i) + b0 y[w_index] u (``w_index=-1``: no w u term); the
     defaults are the DC motor's phi0 = -0.11 x^2 + 0.1 x3 u. Defaults of delta, T_d, xhat0
     and saturation are Ahrens & Khalil Section 4 (delta = 0.05, T_d = 0.15 s,
     x^(0) = (pi, 0), saturation at 100).
