@@ -34,23 +34,50 @@ def sp_rhs(t, s, p2, nu2, m):
             P1 * ((e * e - p2) * r ** (1 - 2 * B) + p2 / r ** 4)]
 
 
-def test_dopri5_matches_tight_reference() -> None:
+@pytest.mark.parametrize(("method", "limit"), [("dopri5", 1e-5), ("dop853", 1e-6)])
+def test_adaptive_matches_tight_reference(method: str, limit: float) -> None:
+    """rtol 1e-8 / atol 1e-10 over 40 s (measured: dopri5 5.5e-6, dop853 2.3e-7)."""
     t_end, dt = 40.0, 0.01
-    tr = simulate(sp_system(), SolverSettings(t_end=t_end, dt_out=dt, h_max=t_end),
-                  no_noise(1))
+    solver = SolverSettings(t_end=t_end, dt_out=dt, method=method, h_max=t_end)
+    tr = simulate(sp_system(), solver, no_noise(1))
     assert tr.ok and len(tr.t) == 4001
     ref = solve_ivp(sp_rhs, (0, t_end), [0, 0, 3, 3, 1], method="DOP853", rtol=1e-12,
                     atol=1e-14, t_eval=tr.t, args=(1.5, 0.0, 0.0))
     err = np.abs(tr.z - ref.y.T).max()
-    assert err < 1e-5, f"max error vs DOP853 (rtol 1e-12) = {err:.2e}"
+    assert err < limit, f"{method}: max error vs DOP853 (rtol 1e-12) = {err:.2e}"
 
 
-def test_rk4_with_held_noise_matches_segmentwise_reference() -> None:
+@pytest.mark.parametrize(("method", "step_order", "dense_order"),
+                         [("dopri5", 5, 4), ("dop853", 8, 7)])
+def test_adaptive_convergence_order(method: str, step_order: int, dense_order: int) -> None:
+    """Fixed steps h = h_max (tolerances so loose that every step is accepted): halving h
+    divides the error at step ends by ~2^order and between them (dense output) by
+    ~2^dense_order. Asserted with one order of slack: a wrong coefficient of the
+    generated tableau drops the order to <= 4."""
+    t_end = 2.0
+    errors = []
+    for h in (0.02, 0.01):
+        solver = SolverSettings(t_end=t_end, dt_out=h / 4, method=method, h_max=h,
+                                rtol=1e3, atol=1e3)
+        tr = simulate(sp_system(), solver, no_noise(1))
+        ref = solve_ivp(sp_rhs, (0, t_end), [0, 0, 3, 3, 1], method="DOP853", rtol=1e-13,
+                        atol=1e-14, t_eval=tr.t, args=(1.5, 0.0, 0.0)).y.T
+        err = np.abs(tr.z - ref).max(axis=1)
+        on_step = np.arange(len(tr.t)) % 4 == 0
+        errors.append((err[on_step].max(), err[~on_step].max()))
+    (step1, dense1), (step2, dense2) = errors
+    assert step1 / step2 > 2 ** (step_order - 1), (step1, step2)
+    assert dense1 / dense2 > 2 ** (dense_order - 1), (dense1, dense2)
+
+
+@pytest.mark.parametrize("method", ["rk4", "dop853"])
+def test_held_noise_matches_segmentwise_reference(method: str) -> None:
     """Noise held on [k dt, (k+1) dt): steps must be cut at every sample instant."""
     t_end, noise_dt, nu2 = 2.0, 0.013, 0.1  # noise instants not on the output grid
     rng = np.random.default_rng(3)
     samples = rng.uniform(-0.05, 0.05, (int(t_end / noise_dt) + 2, 1))
-    solver = SolverSettings(t_end=t_end, dt_out=0.01, method="rk4", h_max=2e-3)
+    solver = SolverSettings(t_end=t_end, dt_out=0.01, method=method, h_max=2e-3,
+                            rtol=1e-10, atol=1e-12)
     tr = simulate(sp_system(nu2=nu2), solver, Noise(samples, noise_dt))
     assert tr.ok
     # reference: DOP853 from sample instant to sample instant with the held value
@@ -73,14 +100,17 @@ def test_rk4_with_held_noise_matches_segmentwise_reference() -> None:
     np.testing.assert_array_equal(tr.m[:, 0], samples[k, 0])
 
 
-@pytest.mark.parametrize("method", ["dopri5", "rk4"])
-def test_ensemble_equals_single_runs(method: str) -> None:
+@pytest.mark.parametrize(("method", "h_max"),
+                         [("dopri5", 1e-2), ("rk4", 1e-2), ("dop853", 20.0)])
+def test_ensemble_equals_single_runs(method: str, h_max: float) -> None:
+    """Members keep no record and skip the outputs before the metrics window; their window
+    integrals equal those of single runs (dop853 with long steps: dense outputs)."""
     rng = np.random.default_rng(0)
     systems = [sp_system(p2=float(p2), e0=tuple(e0))
                for p2, e0 in zip(rng.uniform(0.5, 3, 6), rng.uniform(-3, 3, (6, 2)),
                                  strict=True)]
     params, z0 = stack_members(systems)
-    solver = SolverSettings(t_end=20.0, dt_out=0.01, method=method, h_max=1e-2)
+    solver = SolverSettings(t_end=20.0, dt_out=0.01, method=method, h_max=h_max)
     res = simulate_ensemble(systems[0], solver, no_noise(1), params, z0)
     for i, s in enumerate(systems):
         tr = simulate(s, solver, no_noise(1))
@@ -120,12 +150,12 @@ def _blowup_system() -> System:
     return System(plant, [obs])
 
 
-@pytest.mark.parametrize("method", ["rk4", "dopri5"])
+@pytest.mark.parametrize("method", ["rk4", "dopri5", "dop853"])
 def test_non_finite_state_stops_and_keeps_samples(method: str) -> None:
     solver = SolverSettings(t_end=2.0, dt_out=0.01, method=method, h_max=0.01,
                             state_bound=math.inf)
     tr = simulate(_blowup_system(), solver, no_noise(1))
-    assert tr.status in (1, 3), tr.message  # rk4: non-finite; dopri5 may underflow first
+    assert tr.status in (1, 3), tr.message  # rk4: non-finite; adaptive may underflow first
     if method == "rk4":
         assert tr.status == 1 and tr.message == "non-finite state"
     assert 0.9 < tr.t_stop <= 1.05

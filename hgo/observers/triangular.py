@@ -22,6 +22,7 @@ p = [n, law, p1, p2, b, K~ (n), M (n*n, row-major), c (n)].
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -34,11 +35,14 @@ LAWS = {"constant": 0, "sign_indefinite": 1, "dead_zone": 2}
 
 @kernel_helper
 def _rate(law, e, r, r2n, p1, p2, b):
-    """dr/dt given r2n = r^(2n) (computed by the caller by multiplication): one pow only."""
+    """dr/dt given r2n = r^(2n) (computed by the caller by multiplication).
+
+    r^(1-2b) as exp((1-2b) log r) (r >= 1): 20 ns against 25 ns for pow here, and the
+    dominant cost of every right-hand side of (6)."""
     if law == 1:
-        return p1 * ((e * e - p2) * r ** (1.0 - 2.0 * b) + p2 / r2n)
+        return p1 * ((e * e - p2) * math.exp((1.0 - 2.0 * b) * math.log(r)) + p2 / r2n)
     if law == 2:
-        return p1 * max(0.0, e * e - p2) * r ** (1.0 - 2.0 * b)
+        return p1 * max(0.0, e * e - p2) * math.exp((1.0 - 2.0 * b) * math.log(r))
     return 0.0
 
 

@@ -1,0 +1,152 @@
+"""Embedded Runge–Kutta pairs of the adaptive integrators, written out as kernel source.
+
+The coefficients are scipy's own (``solve_ivp``'s ``RK45`` and ``DOP853``), so hgo takes
+the same steps by the same formulas as ``solve_ivp`` with the same method:
+
+* ``dopri5``: Dormand–Prince 5(4), 6 evaluations per step (first same as last), error
+  weights ``E`` (order 4), 4th-order continuous extension ``P`` (Hairer, Norsett &
+  Wanner, *Solving ODEs I*, II.5-II.6).
+* ``dop853``: Hairer's DOP853, 8th order with the combined 5th/3rd-order error estimate,
+  12 evaluations per step (first same as last) and a 7th-order continuous extension that
+  costs 3 more evaluations, made only for steps that contain an output sample
+  (*Solving ODEs I*, II.10). Fewer steps than ``dopri5`` at tight tolerances.
+
+:func:`method_source` returns, for one method, the constants and the three functions the
+generic loop of ``kernel_template``'s ``adaptive`` section calls:
+
+* ``_trial(t, h, z, d, m, P, w, K, zt, rtol, atol)``: one trial step from ``(t, z)``
+  with stage 0 of ``K`` holding ``f(t, z)``; the new state goes to ``zt``, ``f(t+h, zt)``
+  to stage ``FSAL_STAGE``; returns the error norm (<= 1: accept).
+* ``_dense_prep(t, h, z, zt, d, m, P, w, K, F, scratch)``: coefficients ``F`` of the
+  continuous extension of the accepted step ``z -> zt``.
+* ``_dense_eval(th, z, F, zo)``: the state at ``t + th*h`` (0 < th < 1) into ``zo``.
+
+``K`` is one flat vector: stage ``j`` is ``K[j*NZ:(j+1)*NZ]``. Every stage is written out
+with its coefficients as literals and zero coefficients left out; ``NZ`` is a constant of
+the generated header, so the loops over the state are unrolled by the compiler.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.integrate._ivp import dop853_coefficients as dop853
+from scipy.integrate._ivp.rk import RK45
+
+ADAPTIVE = ("dopri5", "dop853")
+
+
+def _stage(j: int) -> str:
+    return f"view(K, {j} * NZ, {j + 1} * NZ)"
+
+
+def _combination(weights: np.ndarray, rows: str = "K", first: int = 0) -> str:
+    """``w0*K[j0*NZ + i] + ...`` over the nonzero weights (stage index = first + position)."""
+    terms = [f"{float(c)!r} * {rows}[{first + j} * NZ + i]" for j, c in enumerate(weights)
+             if c != 0.0]
+    return " + ".join(terms) if terms else "0.0"
+
+
+def _stages(A: np.ndarray, C: np.ndarray, rows: range, target: str) -> list[str]:
+    """Stages ``rows`` of tableau (A, C): ``target = z + h*sum_j A[s,j] K_j``, then f."""
+    lines = []
+    for s in rows:
+        lines += ["    for i in range(NZ):",
+                  f"        {target}[i] = z[i] + h * ({_combination(A[s, :s])})",
+                  f"    system_rhs(t + {float(C[s])!r} * h, {target}, d, m, P, w, {_stage(s)})"]
+    return lines
+
+
+def _trial(A: np.ndarray, B: np.ndarray, C: np.ndarray, n_stages: int) -> list[str]:
+    return ["@jit",
+            "def _trial(t, h, z, d, m, P, w, K, zt, rtol, atol):",
+            '    """One trial step (see hgo.engine.tableau); returns the error norm."""',
+            *_stages(A, C, range(1, n_stages), "zt"),
+            "    for i in range(NZ):",
+            f"        zt[i] = z[i] + h * ({_combination(B)})",
+            f"    system_rhs(t + h, zt, d, m, P, w, {_stage(n_stages)})",
+            "    return _error_norm(h, z, zt, K, rtol, atol)"]
+
+
+_SCALE = "atol + rtol * max(abs(z[i]), abs(zt[i]))"
+
+
+def _dopri5() -> list[str]:
+    n = RK45.n_stages
+    P = RK45.P  # (n + 1, 4): zo = z + h * sum_q th^(q+1) sum_j P[j, q] K_j
+    lines = ["N_K = 7", "N_F = 4", f"FSAL_STAGE = {n}", "ERR_EXP = -1.0 / 5.0", "", "",
+             "@ijit",
+             "def _error_norm(h, z, zt, K, rtol, atol):",
+             '    """RMS of h * sum_j E_j K_j over atol + rtol * max(|z|, |zt|)."""',
+             "    err = 0.0",
+             "    for i in range(NZ):",
+             f"        e = h * ({_combination(RK45.E)}) / ({_SCALE})",
+             "        err += e * e",
+             "    return math.sqrt(err / NZ)", "", "",
+             *_trial(RK45.A, RK45.B, RK45.C, n), "", "",
+             "@ijit",
+             "def _dense_prep(t, h, z, zt, d, m, P, w, K, F, scratch):",
+             '    """F_q = h * sum_j P[j, q] K_j (no extra evaluation)."""',
+             "    for i in range(NZ):"]
+    lines += [f"        F[{q} * NZ + i] = h * ({_combination(P[:, q])})" for q in range(4)]
+    lines += ["", "", "@ijit",
+              "def _dense_eval(th, z, F, zo):",
+              "    for i in range(NZ):",
+              "        zo[i] = z[i] + th * (F[i] + th * (F[NZ + i] + th * (F[2 * NZ + i]"
+              " + th * F[3 * NZ + i])))"]
+    return lines
+
+
+def _dop853() -> list[str]:
+    n, n_ext, n_f = dop853.N_STAGES, dop853.N_STAGES_EXTENDED, dop853.INTERPOLATOR_POWER
+    A, C, D = dop853.A, dop853.C, dop853.D
+    lines = [f"N_K = {n_ext}", f"N_F = {n_f}", f"FSAL_STAGE = {n}", "ERR_EXP = -1.0 / 8.0",
+             "", "",
+             "@ijit",
+             "def _error_norm(h, z, zt, K, rtol, atol):",
+             '    """DOP853\'s combined estimate |h| e5^2 / sqrt(N (e5^2 + 0.01 e3^2))."""',
+             "    e5 = 0.0",
+             "    e3 = 0.0",
+             "    for i in range(NZ):",
+             f"        sc = {_SCALE}",
+             f"        a5 = ({_combination(dop853.E5)}) / sc",
+             f"        a3 = ({_combination(dop853.E3)}) / sc",
+             "        e5 += a5 * a5",
+             "        e3 += a3 * a3",
+             "    if e5 == 0.0 and e3 == 0.0:",
+             "        return 0.0",
+             "    return abs(h) * e5 / math.sqrt((e5 + 0.01 * e3) * NZ)", "", "",
+             *_trial(A, dop853.B, C, n), "", "",
+             "@jit",
+             "def _dense_prep(t, h, z, zt, d, m, P, w, K, F, scratch):",
+             '    """Three extra stages, then F_0 = zt - z, F_1 = h K_0 - F_0,'
+             ' F_2 = 2 F_0 - h (K_0 + K_12), F_3.. = h D K."""',
+             *_stages(A, C, range(n + 1, n_ext), "scratch"),
+             "    for i in range(NZ):",
+             "        dz = zt[i] - z[i]",
+             "        F[i] = dz",
+             "        F[NZ + i] = h * K[i] - dz",
+             f"        F[2 * NZ + i] = 2.0 * dz - h * (K[i] + K[{n} * NZ + i])"]
+    lines += [f"        F[{3 + q} * NZ + i] = h * ({_combination(D[q])})" for q in range(n_f - 3)]
+    lines += ["", "", "@ijit",
+              "def _dense_eval(th, z, F, zo):",
+              "    s = 1.0 - th",
+              "    for i in range(NZ):",
+              f"        zo[i] = z[i] + {_dop853_horner(n_f)}"]
+    return lines
+
+
+def _dop853_horner(n_f: int) -> str:
+    """scipy's Dop853DenseOutput in Horner form, s = 1 - x:
+    y = x (F_0 + s (F_1 + x (F_2 + s (F_3 + x (F_4 + s (F_5 + x F_6))))))."""
+    expr = f"F[{n_f - 1} * NZ + i]"
+    for q in range(n_f - 2, -1, -1):
+        expr = f"F[{q} * NZ + i] + {'s' if q % 2 == 0 else 'th'} * ({expr})"
+    return f"th * ({expr})"
+
+
+def method_source(method: str) -> str:
+    """Constants and ``_error_norm``, ``_trial``, ``_dense_prep``, ``_dense_eval`` of
+    ``method`` (one of :data:`ADAPTIVE`) as kernel source text."""
+    lines = {"dopri5": _dopri5, "dop853": _dop853}[method]()
+    return f"# {method}: generated by hgo.engine.tableau from scipy's coefficients\n" + \
+        "\n".join(lines) + "\n\n\n"
