@@ -131,3 +131,22 @@ def test_zero_samples(tmp_path: Path) -> None:
     )
     back = read_recording(path)
     assert set(back) == {"sim_time"} and back["sim_time"].shape == (0,)
+
+
+def test_blocks_and_strided_values(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Several send_columns blocks (last one partial), column slices of a wider array."""
+    import hgo.recording as recording
+
+    monkeypatch.setattr(recording, "CHUNK_ROWS", 4)
+    n = 11
+    z = np.random.default_rng(1).standard_normal((n, 5))
+    t = np.linspace(0.0, 1.0, n)
+    series = [
+        Series("/plant/x", ["x1", "x2"], z[:, ::2][:, :2]),  # strided, not contiguous
+        Series("/input/u", ["u"], z[:, 4:5]),
+        Series("/measurement/y", ["y1", "y2", "y3"], z[:, 1:4]),
+    ]
+    back = read_recording(write_recording(tmp_path / "b.rrd", t, series, recording_id="blk"))
+    np.testing.assert_allclose(back["sim_time"], t, rtol=0, atol=1e-9)
+    for s in series:
+        np.testing.assert_array_equal(back[s.entity], s.values)
