@@ -135,6 +135,7 @@ def b_kernel(e10, e20, p2, t_end, dt_out, rtol, atol, h0, t_window, rec, acc):
             k_out += 1
         if k_out >= n_out:
             break
+        retried = False
         while True:
             last = t + h >= t_end - tol
             hh = t_end - t if last else h
@@ -172,6 +173,7 @@ def b_kernel(e10, e20, p2, t_end, dt_out, rtol, atol, h0, t_window, rec, acc):
             if err <= 1.0:
                 break
             h = hh * max(0.2, 0.9 * err ** -0.2)
+            retried = True
         t_new = t_end if last else t + hh
         while k_out < n_out and k_out * dt_out < t_new - tol:  # dense output
             th = (k_out * dt_out - t) / hh
@@ -203,6 +205,8 @@ def b_kernel(e10, e20, p2, t_end, dt_out, rtol, atol, h0, t_window, rec, acc):
         t = t_new
         n_steps += 1
         fac = 10.0 if err == 0.0 else min(10.0, max(0.2, 0.9 * err ** -0.2))
+        if retried:  # no growth right after a rejection (scipy, hgo)
+            fac = min(1.0, fac)
         h = max(h, hh * fac) if last else hh * fac
     return n_steps
 

@@ -47,6 +47,23 @@ def test_adaptive_matches_tight_reference(method: str, limit: float) -> None:
     assert err < limit, f"{method}: max error vs DOP853 (rtol 1e-12) = {err:.2e}"
 
 
+@pytest.mark.parametrize(("method", "scipy_method"), [("dopri5", "RK45"), ("dop853", "DOP853")])
+@pytest.mark.parametrize("rtol", [1e-6, 1e-8])
+def test_adaptive_takes_the_steps_of_solve_ivp(method: str, scipy_method: str,
+                                               rtol: float) -> None:
+    """Same tableau, error norm, initial step and step control as scipy: the same steps,
+    so the outputs agree to round-off (measured <= 1.5e-12), not merely to the tolerance
+    (~1e-5 at rtol 1e-6). A different step sequence (e.g. growth allowed right after a
+    rejection) fails this."""
+    t_end = 40.0
+    solver = SolverSettings(t_end=t_end, dt_out=0.01, method=method, h_max=t_end, rtol=rtol,
+                            atol=rtol * 1e-2)
+    tr = simulate(sp_system(), solver, no_noise(1))
+    ref = solve_ivp(sp_rhs, (0, t_end), [0, 0, 3, 3, 1], method=scipy_method, rtol=rtol,
+                    atol=rtol * 1e-2, t_eval=tr.t, args=(1.5, 0.0, 0.0))
+    assert np.abs(tr.z - ref.y.T).max() < 1e-10
+
+
 @pytest.mark.parametrize(("method", "step_order", "dense_order"),
                          [("dopri5", 5, 4), ("dop853", 8, 7)])
 def test_adaptive_convergence_order(method: str, step_order: int, dense_order: int) -> None:
