@@ -1,9 +1,9 @@
 """Helpers for ensembles: many parameter sets and initial states of one composed system.
 
 :func:`hgo.engine.simulate.simulate_ensemble` takes one row of parameters and one initial
-state per member. :func:`stack_members` builds those rows from systems built member by
-member (e.g. one observer per drawn p2), checking that every member has the same
-layout (the same compiled kernel serves them all).
+state (continuous and discrete) per member. :func:`stack_members` builds those rows from
+systems built member by member (e.g. one observer per drawn p2), checking that every
+member has the same layout (the same compiled kernel serves them all).
 """
 
 from __future__ import annotations
@@ -20,16 +20,20 @@ from hgo.engine.system import System
 
 
 def _layout(system: System) -> tuple:
+    """What the compiled kernel depends on: component functions (stiffness hooks and the
+    observer the controller reads included) and sizes, not parameter values."""
     plant = system.plant
-    funcs = (plant.f, plant.h) + tuple((o.f, o.update, o.estimate) for o in system.observers)
-    ctrl = None if system.controller is None else system.controller.u
+    funcs = (plant.f, plant.h) + tuple((o.f, o.update, o.estimate, o.stiffness)
+                                       for o in system.observers)
+    ctrl = None if system.controller is None else (system.controller.u,
+                                                   system.controlled_observer())
     return (funcs, ctrl, tuple(system.z_slices), tuple(system.d_slices),
             tuple(system.p_slices), tuple(system.xh_slices), len(plant.output_names),
             len(plant.input_names), tuple(system.estimate_map().tolist()))
 
 
-def stack_members(systems: list[System]) -> tuple[np.ndarray, np.ndarray]:
-    """(params (M, n_p), z0 (M, n_z)) of members that share one layout.
+def stack_members(systems: list[System]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(params (M, n_p), z0 (M, n_z), d0 (M, n_d)) of members that share one layout.
 
     Raises ValueError naming the first member whose components or sizes differ from
     member 0's.
@@ -44,7 +48,8 @@ def stack_members(systems: list[System]) -> tuple[np.ndarray, np.ndarray]:
                              "only in parameter values and initial states")
     params = np.stack([s.params() for s in systems])
     z0 = np.stack([s.z0() for s in systems])
-    return params, z0
+    d0 = np.stack([s.d0() for s in systems])
+    return params, z0, d0
 
 
 def stiffest_envelope(systems: list[System]) -> System:

@@ -58,13 +58,14 @@ class EnsembleResult:
     metrics: pd.DataFrame
 
 
-def _simulate_chunks(system: System, solver, noise, params, z0) -> dict[str, np.ndarray]:
+def _simulate_chunks(system: System, solver, noise, params, z0, d0) -> dict[str, np.ndarray]:
     """simulate_ensemble in chunks, logging progress (one compiled call per chunk)."""
     n = len(params)
     edges = np.unique(np.linspace(0, n, min(CHUNKS, n) + 1).astype(int))
     parts, start = [], time.perf_counter()
     for a, b in zip(edges[:-1], edges[1:], strict=True):
-        parts.append(simulate_ensemble(system, solver, noise[a:b], params[a:b], z0[a:b]))
+        parts.append(simulate_ensemble(system, solver, noise[a:b], params[a:b], z0[a:b],
+                                       d0[a:b]))
         log.info("ensemble: %d/%d members (%.2f s)", b, n, time.perf_counter() - start)
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
@@ -115,10 +116,10 @@ def run_ensemble(cfg: DictConfig, out_dir: str | Path) -> EnsembleResult:
     draws = draw_members(cfg.ensemble.vary, size, int(cfg.ensemble.seed))
     systems = [build_system(nodes) for nodes in member_nodes(cfg, draws)] if draws else \
         [build_system(cfg)] * size
-    params, z0 = stack_members(systems)
+    params, z0, d0 = stack_members(systems)
     ny = len(systems[0].plant.output_names)
     noise = [noise_model.sample(solver.t_end, ny, seed + i) for i in range(size)]
-    out = _simulate_chunks(stiffest_envelope(systems), solver, noise, params, z0)
+    out = _simulate_chunks(stiffest_envelope(systems), solver, noise, params, z0, d0)
 
     members = pd.DataFrame(_member_rows(systems, draws, out))
     table = pd.concat([members, _aggregate(members)], ignore_index=True)

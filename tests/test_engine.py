@@ -126,9 +126,9 @@ def test_ensemble_equals_single_runs(method: str, h_max: float) -> None:
     systems = [sp_system(p2=float(p2), e0=tuple(e0))
                for p2, e0 in zip(rng.uniform(0.5, 3, 6), rng.uniform(-3, 3, (6, 2)),
                                  strict=True)]
-    params, z0 = stack_members(systems)
+    params, z0, d0 = stack_members(systems)
     solver = SolverSettings(t_end=20.0, dt_out=0.01, method=method, h_max=h_max)
-    res = simulate_ensemble(systems[0], solver, no_noise(1), params, z0)
+    res = simulate_ensemble(systems[0], solver, no_noise(1), params, z0, d0)
     for i, s in enumerate(systems):
         tr = simulate(s, solver, no_noise(1))
         assert res["status"][i] == tr.status
@@ -137,10 +137,37 @@ def test_ensemble_equals_single_runs(method: str, h_max: float) -> None:
         assert res["t_stop"][i] == tr.t_stop
 
 
+def _drift_f(t, z, d, y, u, p, dz):
+    dz[0] = d[0]  # the discrete state sets the drift: members differ only in d0
+
+
+def _drift_system(drift: float) -> System:
+    plant = sp_linear_plant(nu1=0.0, nu2=0.0, x0=(0.0, 0.0))
+    obs = Observer("o", ["xh"], ["drift"], [0], np.zeros(1), np.array([drift]), np.zeros(0),
+                   _drift_f, _copy_est)
+    return System(plant, [obs])
+
+
+def test_ensemble_members_keep_their_own_discrete_state() -> None:
+    """Each member starts from its own d0 (before, member 0's d0 served all)."""
+    systems = [_drift_system(c) for c in (1.0, -2.0, 3.0)]
+    params, z0, d0 = stack_members(systems)
+    solver = SolverSettings(t_end=4.0, dt_out=0.01, method="dopri5", h_max=4.0)
+    res = simulate_ensemble(systems[0], solver, no_noise(1), params, z0, d0)
+    for i, s in enumerate(systems):  # x^ = c t, x1 = 0: window integral of (c t)^2 on [3, 4]
+        np.testing.assert_allclose(res["acc"][i], simulate(s, solver, no_noise(1)).acc,
+                                   rtol=1e-12)
+        assert res["acc"][i][0] == pytest.approx(s.d0()[0] ** 2 * (64 - 27) / 3, rel=1e-4)
+
+
 def test_stack_members_rejects_different_layouts() -> None:
     other = System(sp_linear_plant(), [triangular_hgo("o", K=[2], xhat0=[0.0])])
     with pytest.raises(ValueError, match="member 1"):
         stack_members([sp_system(), other])
+    hooked = sp_system()
+    hooked.observers[0].stiffness = _drift_f  # another kernel: a stiffness hook
+    with pytest.raises(ValueError, match="member 1"):
+        stack_members([sp_system(), hooked])
 
 
 def _blowup_f(t, x, u, p, dx):

@@ -187,13 +187,15 @@ def simulate(system: System, solver: SolverSettings, noise: Noise,
 
 
 def simulate_ensemble(system: System, solver: SolverSettings, noise: list[Noise] | Noise,
-                      params: np.ndarray, z0: np.ndarray) -> dict[str, np.ndarray]:
+                      params: np.ndarray, z0: np.ndarray,
+                      d0: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """Integrate many runs in parallel (numba ``prange``); metrics only, no trajectories.
 
-    ``params`` (M, n_p) and ``z0`` (M, n_z) give one row per member; ``noise`` is one
-    :class:`Noise` per member (same ``dt``) or one shared by all. ``system`` serves every
-    member: its kernel, its ``d0`` and, for RK4, its constant spectral radii cap the steps
-    of all (see :func:`hgo.ensemble.stiffest_envelope`).
+    ``params`` (M, n_p), ``z0`` (M, n_z) and ``d0`` (M, n_d; default: ``system.d0()`` for
+    all) give one row per member (:func:`hgo.ensemble.stack_members` builds all three);
+    ``noise`` is one :class:`Noise` per member (same ``dt``) or one shared by all.
+    ``system`` serves every member: its kernel and, for RK4, its constant spectral radii
+    cap the steps of all (see :func:`hgo.ensemble.stiffest_envelope`).
     Returns ``acc`` (M, n_acc) window integrals, ``status`` (M,) and ``t_stop`` (M,).
     """
     solver.validate()
@@ -207,7 +209,9 @@ def simulate_ensemble(system: System, solver: SolverSettings, noise: list[Noise]
         raise ValueError(f"noise: {len(members)} members' noise for {n} parameter rows")
     _check_noise(system, members)
     samples = np.ascontiguousarray(np.stack([m.samples for m in members]), float)
-    d0 = np.tile(system.d0(), (n, 1))
+    d0 = np.tile(system.d0(), (n, 1)) if d0 is None else np.ascontiguousarray(d0, float)
+    if d0.shape != (n, system.nd):
+        raise ValueError(f"d0 must have shape ({n}, {system.nd}), got {d0.shape}")
     acc = np.zeros((n, system.nxh + len(system.observers) + 1))
     status = np.zeros(n, dtype=np.int64)
     t_stop = np.zeros(n)
