@@ -29,6 +29,9 @@ the generated header, so the loops over the state are unrolled by the compiler.
 from __future__ import annotations
 
 import numpy as np
+
+# scipy's private modules, on purpose: the tableaus solve_ivp itself uses (stable since
+# scipy 1.4); tests/test_engine.py checks hgo takes solve_ivp's steps to round-off.
 from scipy.integrate._ivp import dop853_coefficients as dop853
 from scipy.integrate._ivp.rk import RK45
 
@@ -39,10 +42,9 @@ def _stage(j: int) -> str:
     return f"view(K, {j} * NZ, {j + 1} * NZ)"
 
 
-def _combination(weights: np.ndarray, rows: str = "K", first: int = 0) -> str:
-    """``w0*K[j0*NZ + i] + ...`` over the nonzero weights (stage index = first + position)."""
-    terms = [f"{float(c)!r} * {rows}[{first + j} * NZ + i]" for j, c in enumerate(weights)
-             if c != 0.0]
+def _combination(weights: np.ndarray) -> str:
+    """``w_j * K[j*NZ + i] + ...`` over the nonzero weights ``w_j`` of stages ``j``."""
+    terms = [f"{float(c)!r} * K[{j} * NZ + i]" for j, c in enumerate(weights) if c != 0.0]
     return " + ".join(terms) if terms else "0.0"
 
 
