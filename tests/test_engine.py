@@ -160,6 +160,28 @@ def test_ensemble_members_keep_their_own_discrete_state() -> None:
         assert res["acc"][i][0] == pytest.approx(s.d0()[0] ** 2 * (64 - 27) / 3, rel=1e-4)
 
 
+def test_paired_ensemble_members_with_own_noise_and_early_exits() -> None:
+    """Adaptive ensembles advance members two by two in one thread: with per-member held
+    noise, an odd count and members that leave the state bound early (their partner goes
+    on alone), every member still equals its single run."""
+    rng = np.random.default_rng(5)
+    systems = [sp_system(p2=float(p2), e0=tuple(e0))
+               for p2, e0 in zip(rng.uniform(0.5, 3, 5), rng.uniform(-3, 3, (5, 2)),
+                                 strict=True)]
+    params, z0, d0 = stack_members(systems)
+    noises = [Noise(rng.uniform(-0.05, 0.05, (int(10 / 0.013) + 2, 1)), 0.013)
+              for _ in systems]
+    solver = SolverSettings(t_end=10.0, dt_out=0.01, method="dop853", h_max=10.0,
+                            state_bound=6.0)
+    res = simulate_ensemble(systems[0], solver, noises, params, z0, d0)
+    assert 0 < (res["status"] == 2).sum() < len(systems)  # some exit early, some do not
+    for i, (s, noise) in enumerate(zip(systems, noises, strict=True)):
+        tr = simulate(s, solver, noise)
+        assert res["status"][i] == tr.status and res["t_stop"][i] == tr.t_stop
+        np.testing.assert_allclose(res["acc"][i], tr.acc, rtol=1e-12, atol=0,
+                                   err_msg=f"member {i}")
+
+
 def test_stack_members_rejects_different_layouts() -> None:
     other = System(sp_linear_plant(), [triangular_hgo("o", K=[2], xhat0=[0.0])])
     with pytest.raises(ValueError, match="member 1"):
