@@ -160,10 +160,9 @@ def test_ensemble_members_keep_their_own_discrete_state() -> None:
         assert res["acc"][i][0] == pytest.approx(s.d0()[0] ** 2 * (64 - 27) / 3, rel=1e-4)
 
 
-def test_paired_ensemble_members_with_own_noise_and_early_exits() -> None:
-    """Adaptive ensembles advance members two by two in one thread: with per-member held
-    noise, an odd count and members that leave the state bound early (their partner goes
-    on alone), every member still equals its single run."""
+def test_ensemble_members_with_own_noise_and_early_exits() -> None:
+    """An adaptive ensemble with per-member held noise, an odd count and members that leave
+    the state bound early: every member equals its single run."""
     rng = np.random.default_rng(5)
     systems = [sp_system(p2=float(p2), e0=tuple(e0))
                for p2, e0 in zip(rng.uniform(0.5, 3, 5), rng.uniform(-3, 3, (5, 2)),

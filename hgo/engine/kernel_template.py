@@ -129,44 +129,20 @@ def _emit(k, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0, tol
 @pjit
 def integrate_ensemble(Z0, D0, PP, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab,
                        rho_const, bound, t_window, ACC, STATUS, T_STOP):
-    """Integrate many runs in parallel (one per row of Z0, D0, PP, noise), metrics only.
-
-    Members go in groups of ``LANES`` (a constant of the integrator's section): an
-    adaptive integrator advances two members side by side in one thread.
-    """
+    """Integrate many runs in parallel (one per row of Z0, D0, PP, noise), metrics only."""
     n_members = Z0.shape[0]
-    for g in prange((n_members + LANES - 1) // LANES):
-        a = g * LANES
-        _integrate_group(a, min(n_members, a + LANES), Z0, D0, PP, noise, noise_dt, t_end,
-                         dt_out, h_max, rtol, atol, stab, rho_const, bound, t_window, ACC,
-                         STATUS, T_STOP)
-
-
-@ijit
-def _integrate_member(i, Z0, D0, PP, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab,
-                      rho_const, bound, t_window, ACC, STATUS, T_STOP):
-    """Member i alone, metrics only (no record)."""
-    empty = np.zeros((0, 1))
-    z = Z0[i].copy()
-    d = D0[i].copy()
-    st, n_rec, t_stop = integrate(z, d, PP[i], noise[i], noise_dt, t_end, dt_out, h_max,
-                                  rtol, atol, stab, rho_const, bound, t_window, empty,
-                                  empty, empty, empty, empty, empty, ACC[i])
-    STATUS[i] = st
-    T_STOP[i] = t_stop
+    for i in prange(n_members):
+        empty = np.zeros((0, 1))
+        z = Z0[i].copy()
+        d = D0[i].copy()
+        st, n_rec, t_stop = integrate(z, d, PP[i], noise[i], noise_dt, t_end, dt_out, h_max,
+                                      rtol, atol, stab, rho_const, bound, t_window, empty,
+                                      empty, empty, empty, empty, empty, ACC[i])
+        STATUS[i] = st
+        T_STOP[i] = t_stop
 
 
 # --- section: rk4 ---
-LANES = 1
-
-
-@ijit
-def _integrate_group(a, b, Z0, D0, PP, noise, noise_dt, t_end, dt_out, h_max, rtol, atol,
-                     stab, rho_const, bound, t_window, ACC, STATUS, T_STOP):
-    _integrate_member(a, Z0, D0, PP, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab,
-                      rho_const, bound, t_window, ACC, STATUS, T_STOP)
-
-
 @ijit
 def _rk4_step(t, h, z, d, m, P, w, k1, k2, k3, k4, zt):
     n = NZ  # a constant of the header: loops unrolled
@@ -251,18 +227,7 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
 # --- section: adaptive ---
 # The loop of the embedded Runge–Kutta pairs (dopri5, dop853). The method's constants
 # (N_K stages rows, N_F dense-output rows, FSAL_STAGE, ERR_EXP) and its functions
-# _trial, _trial2, _dense_prep, _dense_eval come before this section (hgo.engine.tableau).
-#
-# The stepping logic is written once, per run ("lane"): _lane_start, then _lane_prepare /
-# a trial / _lane_finish until the lane is done. Its scalars live in a float64 vector s
-# (indices S_*), so one run (integrate) or two runs in lockstep (_integrate_group of an
-# ensemble: their stages interleaved by _trial2, each with its own step control) share it.
-LANES = 2
-S_T, S_H, S_HH, S_LAST, S_TSEG, S_KNOISE, S_KOUT = 0, 1, 2, 3, 4, 5, 6
-S_FSAL, S_RETRIED, S_NEWSEG, S_STATUS, S_DONE = 7, 8, 9, 10, 11
-N_S = 12
-
-
+# _trial, _dense_prep, _dense_eval come before this section (hgo.engine.tableau).
 @jit
 def _rms(a, z, rtol, atol):
     s = 0.0
@@ -290,246 +255,108 @@ def _initial_step(t, z, d, m, P, w, k1, k2, zt, rtol, atol, h_max):
 
 
 @jit
-def _lane_work(nd):
-    """Length of one lane's work vector: stages K, dense rows F, zt, zo, dsave, common."""
-    return (N_K + N_F + 2) * NZ + nd + _n_common_work(NZ)
-
-
-@ijit
-def _lane_views(work, nd):
-    """K, F, zt, zo, dsave of a lane's work vector (the common views follow them)."""
-    o = (N_K + N_F) * NZ
-    return (view(work, 0, N_K * NZ), view(work, N_K * NZ, o), view(work, o, o + NZ),
-            view(work, o + NZ, o + 2 * NZ), view(work, o + 2 * NZ, o + 2 * NZ + nd))
-
-
-@ijit
-def _lane_start(s, work, z, d, P, noise, bound, t_end, dt_out, t_window, rtol, atol, h_max,
-                Z, D, Y, M, U, XH, acc):
-    """Output 0, f(0, z) into stage 0 and the first step size; returns n_out, tol, t_win0."""
-    nd = d.shape[0]
-    K, F, zt, zo, dsave = _lane_views(work, nd)
-    w, y, u, xh, sq, prev, win, m = _common_views(work, (N_K + N_F + 2) * NZ + nd)
-    status, n_out, tol, t_win0 = _start(z, d, m, P, w, y, u, xh, sq, prev, acc, win, noise,
-                                        bound, t_end, dt_out, t_window, Z, D, Y, M, U, XH)
-    s[S_KOUT] = 1.0
-    s[S_FSAL] = 1.0  # stage 0 holds f(t, z) for the current noise sample and discrete state
-    s[S_NEWSEG] = 1.0
-    if status != 0:
-        s[S_STATUS] = status
-        s[S_DONE] = 1.0
-        return n_out, tol, t_win0
-    k1 = view(K, 0, NZ)
-    system_rhs(0.0, z, d, m, P, w, k1)
-    s[S_H] = _initial_step(0.0, z, d, m, P, w, k1, zo, zt, rtol, atol, h_max)
-    return n_out, tol, t_win0
-
-
-@ijit
-def _lane_prepare(s, work, z, d, P, noise_dt, t_end, h_max, tol):
-    """Start a segment between noise instants if due, refresh f(t, z), choose the trial
-    step (S_HH, S_LAST: it ends the segment). False when the step underflows (status 3)."""
-    nd = d.shape[0]
-    K, F, zt, zo, dsave = _lane_views(work, nd)
-    w, y, u, xh, sq, prev, win, m = _common_views(work, (N_K + N_F + 2) * NZ + nd)
-    t = s[S_T]
-    if s[S_NEWSEG] != 0.0:
-        t_seg = (s[S_KNOISE] + 1.0) * noise_dt
-        s[S_TSEG] = t_end if t_seg >= t_end - tol else t_seg
-        s[S_NEWSEG] = 0.0
-    if s[S_FSAL] == 0.0:
-        system_rhs(t, z, d, m, P, w, view(K, 0, NZ))
-        s[S_FSAL] = 1.0
-    hh = min(s[S_H], h_max)
-    last = t + hh >= s[S_TSEG] - tol
-    if last:
-        hh = s[S_TSEG] - t
-    if hh < 1e-14 * max(1.0, abs(t)):
-        s[S_STATUS] = 3.0
-        s[S_DONE] = 1.0
-        return False
-    s[S_HH] = hh
-    s[S_LAST] = 1.0 if last else 0.0
-    return True
-
-
-@ijit
-def _lane_finish(s, err, work, z, d, P, noise, t_end, dt_out, bound, tol, t_win0, n_out,
-                 Z, D, Y, M, U, XH, acc):
-    """After a trial with error norm err: reject (smaller step), or accept: outputs inside
-    the step (dense), the new state, the discrete update, step control, outputs at the
-    step end; at a segment end the next noise sample. Sets S_DONE when the run ends.
-
-    Without a record (an ensemble member) outputs before the metrics window are skipped:
-    nothing would read them.
-    """
-    nd = d.shape[0]
-    K, F, zt, zo, dsave = _lane_views(work, nd)
-    w, y, u, xh, sq, prev, win, m = _common_views(work, (N_K + N_F + 2) * NZ + nd)
-    t, hh, last = s[S_T], s[S_HH], s[S_LAST] != 0.0
-    if not err <= 1.0:  # rejected (or non-finite)
-        s[S_H] = hh * (0.2 if not math.isfinite(err) else max(0.2, 0.9 * err ** ERR_EXP))
-        s[S_RETRIED] = 1.0
-        return
-    record = Z.shape[0] > 0
-    t_new = s[S_TSEG] if last else t + hh
-    k_out = np.int64(s[S_KOUT])
-    prepared = False
-    while k_out < n_out and k_out * dt_out < t_new - tol:  # outputs inside the step
-        t_o = k_out * dt_out
-        if record or t_o >= t_win0 - tol:
-            if not prepared:
-                _dense_prep(t, hh, z, zt, d, m, P, w, K, F, zo)
-                prepared = True
-            _dense_eval((t_o - t) / hh, z, F, zo)
-            _emit(k_out, t_o, zo, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0,
-                  tol, Z, D, Y, M, U, XH)
-        k_out += 1
-    for i in range(NZ):
-        z[i] = zt[i]
-        K[i] = K[FSAL_STAGE * NZ + i]
-    t = t_new
-    s[S_T] = t
-    if HAS_UPDATE:  # (a constant of the generated header: no discrete logic, no code)
-        for i in range(nd):
-            dsave[i] = d[i]
-        system_update(t, z, d, m, P, w)
-        for i in range(NZ):  # the discrete update changed z or d: stage 0 is stale
-            if z[i] != zt[i]:
-                s[S_FSAL] = 0.0
-        for i in range(nd):
-            if d[i] != dsave[i]:
-                s[S_FSAL] = 0.0
-    status = _state_status(z, bound)
-    if status != 0:
-        s[S_STATUS] = status
-        s[S_DONE] = 1.0
-        s[S_KOUT] = k_out
-        return
-    fac = 10.0 if err == 0.0 else min(10.0, max(0.2, 0.9 * err ** ERR_EXP))
-    if s[S_RETRIED] != 0.0:  # as scipy: no growth right after a rejection
-        fac = min(1.0, fac)
-        s[S_RETRIED] = 0.0
-    # a step shortened to reach the segment end must not shrink the next proposal
-    s[S_H] = max(s[S_H], hh * fac) if last else hh * fac
-    if last and s[S_TSEG] < t_end:  # the next noise sample holds from here on
-        s[S_KNOISE] += 1.0
-        idx = min(np.int64(s[S_KNOISE]), noise.shape[0] - 1)
-        for i in range(NY):
-            m[i] = noise[idx, i]
-        s[S_FSAL] = 0.0
-    while k_out < n_out and k_out * dt_out <= t + tol:  # outputs on the step end
-        _emit(k_out, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0, tol,
-              Z, D, Y, M, U, XH)
-        k_out += 1
-    s[S_KOUT] = k_out
-    if last:
-        s[S_NEWSEG] = 1.0
-        if k_out >= n_out:
-            s[S_DONE] = 1.0
-
-
-@ijit
-def _lane_buffers(buf, nd):
-    """A lane's work vector and state vector s, borrowed from one owned buffer (the caller
-    reads its results from the buffer itself, which keeps it alive to the end)."""
-    n_work = _lane_work(nd)
-    return view(buf, 0, n_work), view(buf, n_work, n_work + N_S)
-
-
-@ijit
-def _lane_signals(work, nd):
-    """The lane's w (signals) and m (held noise sample) vectors."""
-    o = (N_K + N_F + 2) * NZ + nd
-    return view(work, o, o + NW), _common_views(work, o)[7]
-
-
-@jit
 def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, rho_const,
               bound, t_window, Z, D, Y, M, U, XH, acc):
     """Integrate one run (adaptive). Returns (status, number of output samples, stop time).
 
-    ``stab`` and ``rho_const`` are unused here (RK4 only).
+    One compiled function, as for RK4 (``stab`` and ``rho_const`` are unused here).
+    Without a record (an ensemble member), output instants before the metrics window
+    are skipped: nothing would read them.
     """
-    nd = d.shape[0]
-    buf = np.zeros(_lane_work(nd) + N_S)
-    work, s = _lane_buffers(buf, nd)
+    work = np.zeros((N_K + N_F + 2) * z.shape[0] + d.shape[0] + _n_common_work(z.shape[0]))
     z, d, P, noise, acc = borrow(z), borrow(d), borrow(P), borrow(noise), borrow(acc)
     Z, D, Y, M, U, XH = borrow(Z), borrow(D), borrow(Y), borrow(M), borrow(U), borrow(XH)
-    n_out, tol, t_win0 = _lane_start(s, work, z, d, P, noise, bound, t_end, dt_out, t_window,
-                                     rtol, atol, h_max, Z, D, Y, M, U, XH, acc)
-    w, m = _lane_signals(work, nd)
-    K, F, zt, zo, dsave = _lane_views(work, nd)
-    while s[S_DONE] == 0.0:
-        if _lane_prepare(s, work, z, d, P, noise_dt, t_end, h_max, tol):
-            err = _trial(s[S_T], s[S_HH], z, d, m, P, w, K, zt, rtol, atol)
-            _lane_finish(s, err, work, z, d, P, noise, t_end, dt_out, bound, tol, t_win0,
-                         n_out, Z, D, Y, M, U, XH, acc)
-    o = buf.shape[0] - N_S
-    return np.int64(buf[o + S_STATUS]), np.int64(buf[o + S_KOUT]), buf[o + S_T]
-
-
-@ijit
-def _member_lane(i, Z0, D0, buf):
-    """Work, state, z and d of member i in one owned buffer (z, d copied in)."""
-    nd = D0.shape[1]
-    work, s = _lane_buffers(buf, nd)
-    o = _lane_work(nd) + N_S
-    z, d = view(buf, o, o + NZ), view(buf, o + NZ, o + NZ + nd)
-    for k in range(NZ):
-        z[k] = Z0[i, k]
-    for k in range(nd):
-        d[k] = D0[i, k]
-    return work, s, z, d
-
-
-@jit
-def _integrate_group(a, b, Z0, D0, PP, noise, noise_dt, t_end, dt_out, h_max, rtol, atol,
-                     stab, rho_const, bound, t_window, ACC, STATUS, T_STOP):
-    """Members a and a + 1 side by side (their trials interleaved by _trial2, each with its
-    own step control), or member a alone when b = a + 1. Metrics only."""
-    if b - a < 2:
-        _integrate_member(a, Z0, D0, PP, noise, noise_dt, t_end, dt_out, h_max, rtol, atol,
-                          stab, rho_const, bound, t_window, ACC, STATUS, T_STOP)
-        return
-    nd = D0.shape[1]
-    size = _lane_work(nd) + N_S + NZ + nd
-    buf0, buf1 = np.zeros(size), np.zeros(size)
-    work0, s0, z0, d0 = _member_lane(a, Z0, D0, buf0)
-    work1, s1, z1, d1 = _member_lane(a + 1, Z0, D0, buf1)
-    empty = np.zeros((0, 1))
-    no = borrow(empty)
-    P0, P1 = borrow(PP[a]), borrow(PP[a + 1])
-    n0, n1 = borrow(noise[a]), borrow(noise[a + 1])
-    acc0, acc1 = borrow(ACC[a]), borrow(ACC[a + 1])
-    n_out, tol, t_win0 = _lane_start(s0, work0, z0, d0, P0, n0, bound, t_end, dt_out,
-                                     t_window, rtol, atol, h_max, no, no, no, no, no, no, acc0)
-    _lane_start(s1, work1, z1, d1, P1, n1, bound, t_end, dt_out, t_window, rtol, atol, h_max,
-                no, no, no, no, no, no, acc1)
-    w0, m0 = _lane_signals(work0, nd)
-    w1, m1 = _lane_signals(work1, nd)
-    K0, F0, zt0, zo0, ds0 = _lane_views(work0, nd)
-    K1, F1, zt1, zo1, ds1 = _lane_views(work1, nd)
-    while s0[S_DONE] == 0.0 or s1[S_DONE] == 0.0:
-        go0 = s0[S_DONE] == 0.0 and _lane_prepare(s0, work0, z0, d0, P0, noise_dt, t_end,
-                                                  h_max, tol)
-        go1 = s1[S_DONE] == 0.0 and _lane_prepare(s1, work1, z1, d1, P1, noise_dt, t_end,
-                                                  h_max, tol)
-        e0 = e1 = 0.0
-        if go0 and go1:
-            e0, e1 = _trial2(s0[S_T], s0[S_HH], z0, d0, m0, P0, w0, K0, zt0,
-                             s1[S_T], s1[S_HH], z1, d1, m1, P1, w1, K1, zt1, rtol, atol)
-        elif go0:
-            e0 = _trial(s0[S_T], s0[S_HH], z0, d0, m0, P0, w0, K0, zt0, rtol, atol)
-        elif go1:
-            e1 = _trial(s1[S_T], s1[S_HH], z1, d1, m1, P1, w1, K1, zt1, rtol, atol)
-        if go0:
-            _lane_finish(s0, e0, work0, z0, d0, P0, n0, t_end, dt_out, bound, tol, t_win0,
-                         n_out, no, no, no, no, no, no, acc0)
-        if go1:
-            _lane_finish(s1, e1, work1, z1, d1, P1, n1, t_end, dt_out, bound, tol, t_win0,
-                         n_out, no, no, no, no, no, no, acc1)
-    o = _lane_work(nd)
-    STATUS[a], T_STOP[a] = np.int64(buf0[o + S_STATUS]), buf0[o + S_T]
-    STATUS[a + 1], T_STOP[a + 1] = np.int64(buf1[o + S_STATUS]), buf1[o + S_T]
-    empty[:] = 0.0  # (keeps the owned empty record alive to the end, as buf0 and buf1)
+    nz = NZ
+    nd = d.shape[0]
+    K = view(work, 0, N_K * nz)
+    k1 = view(K, 0, nz)
+    k_fsal = view(K, FSAL_STAGE * nz, (FSAL_STAGE + 1) * nz)
+    F = view(work, N_K * nz, (N_K + N_F) * nz)
+    zt = view(work, (N_K + N_F) * nz, (N_K + N_F + 1) * nz)
+    zo = view(work, (N_K + N_F + 1) * nz, (N_K + N_F + 2) * nz)
+    dsave = view(work, (N_K + N_F + 2) * nz, (N_K + N_F + 2) * nz + nd)
+    w, y, u, xh, sq, prev, win, m = _common_views(work, (N_K + N_F + 2) * nz + nd)
+    record = Z.shape[0] > 0
+    n_noise = noise.shape[0]
+    t = 0.0
+    k_noise = 0
+    status, n_out, tol, t_win0 = _start(z, d, m, P, w, y, u, xh, sq, prev, acc, win, noise,
+                                        bound, t_end, dt_out, t_window, Z, D, Y, M, U, XH)
+    if status != 0:
+        return status, 1, t
+    k_out = np.int64(1)
+    system_rhs(t, z, d, m, P, w, k1)
+    h = _initial_step(t, z, d, m, P, w, k1, zo, zt, rtol, atol, h_max)
+    fsal = True  # k1 holds f(t, z) for the current noise sample and discrete state
+    retried = False  # the step being tried follows a rejection
+    while k_out < n_out:
+        t_seg = (k_noise + 1) * noise_dt
+        if t_seg >= t_end - tol:
+            t_seg = t_end
+        while True:  # steps inside [t, t_seg]
+            if not fsal:
+                system_rhs(t, z, d, m, P, w, k1)
+                fsal = True
+            hh = min(h, h_max)
+            last = t + hh >= t_seg - tol
+            if last:
+                hh = t_seg - t
+            if hh < 1e-14 * max(1.0, abs(t)):
+                return 3, k_out, t
+            err = _trial(t, hh, z, d, m, P, w, K, zt, rtol, atol)
+            if not err <= 1.0:  # rejected (or non-finite)
+                h = hh * (0.2 if not math.isfinite(err) else max(0.2, 0.9 * err ** ERR_EXP))
+                retried = True
+                continue
+            t_new = t_seg if last else t + hh
+            prepared = False
+            while k_out < n_out and k_out * dt_out < t_new - tol:  # outputs inside the step
+                t_o = k_out * dt_out
+                if record or t_o >= t_win0 - tol:
+                    if not prepared:
+                        _dense_prep(t, hh, z, zt, d, m, P, w, K, F, zo)
+                        prepared = True
+                    _dense_eval((t_o - t) / hh, z, F, zo)
+                    _emit(k_out, t_o, zo, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out,
+                          t_win0, tol, Z, D, Y, M, U, XH)
+                k_out += 1
+            for i in range(nz):
+                z[i] = zt[i]
+                k1[i] = k_fsal[i]
+            t = t_new
+            if HAS_UPDATE:  # (a constant of the generated header: no discrete logic, no code)
+                for i in range(nd):
+                    dsave[i] = d[i]
+                system_update(t, z, d, m, P, w)
+                for i in range(nz):  # the discrete update changed z or d: k1 is stale
+                    if z[i] != zt[i]:
+                        fsal = False
+                for i in range(nd):
+                    if d[i] != dsave[i]:
+                        fsal = False
+            status = _state_status(z, bound)
+            if status != 0:
+                return status, k_out, t
+            fac = 10.0 if err == 0.0 else min(10.0, max(0.2, 0.9 * err ** ERR_EXP))
+            if retried:  # as scipy: no growth right after a rejection (B: 4 % fewer trials)
+                fac = min(1.0, fac)
+                retried = False
+            # a step shortened to reach the segment end must not shrink the next proposal
+            h = max(h, hh * fac) if last else hh * fac
+            if last:
+                break
+            while k_out < n_out and k_out * dt_out <= t + tol:  # an output on the step end
+                _emit(k_out, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0,
+                      tol, Z, D, Y, M, U, XH)
+                k_out += 1
+        if t_seg < t_end:  # the next noise sample holds from here on
+            k_noise += 1
+            idx = min(k_noise, n_noise - 1)
+            for i in range(NY):
+                m[i] = noise[idx, i]
+            fsal = False
+        while k_out < n_out and k_out * dt_out <= t + tol:
+            _emit(k_out, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0,
+                  tol, Z, D, Y, M, U, XH)
+            k_out += 1
+    return 0, n_out, t

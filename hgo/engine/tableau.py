@@ -16,9 +16,7 @@ generic loop of ``kernel_template``'s ``adaptive`` section calls:
 
 * ``_trial(t, h, z, d, m, P, w, K, zt, rtol, atol)``: one trial step from ``(t, z)``
   with stage 0 of ``K`` holding ``f(t, z)``; the new state goes to ``zt``, ``f(t+h, zt)``
-  to stage ``FSAL_STAGE``; returns the error norm (<= 1: accept). ``_trial2`` takes the
-  same arguments for two independent runs (suffixes 0 and 1, then ``rtol, atol``) and
-  computes their stages side by side (ensembles: ~1.8x per run, ``benchmarks/lanes.py``).
+  to stage ``FSAL_STAGE``; returns the error norm (<= 1: accept).
 * ``_dense_prep(t, h, z, zt, d, m, P, w, K, F, scratch)``: coefficients ``F`` of the
   continuous extension of the accepted step ``z -> zt``.
 * ``_dense_eval(th, z, F, zo)``: the state at ``t + th*h`` (0 < th < 1) into ``zo``.
@@ -40,56 +38,35 @@ from scipy.integrate._ivp.rk import RK45
 ADAPTIVE = ("dopri5", "dop853")
 
 
-def _stage(j: int, lane: str = "") -> str:
-    return f"view(K{lane}, {j} * NZ, {j + 1} * NZ)"
+def _stage(j: int) -> str:
+    return f"view(K, {j} * NZ, {j + 1} * NZ)"
 
 
-def _combination(weights: np.ndarray, lane: str = "") -> str:
+def _combination(weights: np.ndarray) -> str:
     """``w_j * K[j*NZ + i] + ...`` over the nonzero weights ``w_j`` of stages ``j``."""
-    terms = [f"{float(c)!r} * K{lane}[{j} * NZ + i]" for j, c in enumerate(weights)
-             if c != 0.0]
+    terms = [f"{float(c)!r} * K[{j} * NZ + i]" for j, c in enumerate(weights) if c != 0.0]
     return " + ".join(terms) if terms else "0.0"
 
 
-def _stages(A: np.ndarray, C: np.ndarray, rows: range, target: str,
-            lanes: tuple[str, ...] = ("",)) -> list[str]:
-    """Stages ``rows`` of tableau (A, C): ``target = z + h*sum_j A[s,j] K_j``, then f.
-
-    With several ``lanes`` (name suffixes of independent runs) each stage is written for
-    all of them side by side: one run's stage hides the latency of the other's.
-    """
+def _stages(A: np.ndarray, C: np.ndarray, rows: range, target: str) -> list[str]:
+    """Stages ``rows`` of tableau (A, C): ``target = z + h*sum_j A[s,j] K_j``, then f."""
     lines = []
     for s in rows:
-        for ln in lanes:
-            lines += ["    for i in range(NZ):",
-                      f"        {target}{ln}[i] = z{ln}[i] + h{ln} * "
-                      f"({_combination(A[s, :s], ln)})"]
-        lines += [f"    system_rhs(t{ln} + {float(C[s])!r} * h{ln}, {target}{ln}, d{ln}, m{ln}, "
-                  f"P{ln}, w{ln}, {_stage(s, ln)})" for ln in lanes]
+        lines += ["    for i in range(NZ):",
+                  f"        {target}[i] = z[i] + h * ({_combination(A[s, :s])})",
+                  f"    system_rhs(t + {float(C[s])!r} * h, {target}, d, m, P, w, {_stage(s)})"]
     return lines
 
 
-def _trial(A: np.ndarray, B: np.ndarray, C: np.ndarray, n_stages: int,
-           lanes: tuple[str, ...] = ("",)) -> list[str]:
-    """``_trial`` (one run) or ``_trial2`` (lanes "0" and "1": two runs side by side)."""
-    name = "_trial" if lanes == ("",) else f"_trial{len(lanes)}"
-    args = ", ".join(f"t{ln}, h{ln}, z{ln}, d{ln}, m{ln}, P{ln}, w{ln}, K{ln}, zt{ln}"
-                     for ln in lanes)
-    lines = ["@jit", f"def {name}({args}, rtol, atol):",
-             '    """One trial step per run (see hgo.engine.tableau); returns the error '
-             'norm(s)."""',
-             *_stages(A, C, range(1, n_stages), "zt", lanes)]
-    for ln in lanes:
-        lines += ["    for i in range(NZ):",
-                  f"        zt{ln}[i] = z{ln}[i] + h{ln} * ({_combination(B, ln)})"]
-    lines += [f"    system_rhs(t{ln} + h{ln}, zt{ln}, d{ln}, m{ln}, P{ln}, w{ln}, "
-              f"{_stage(n_stages, ln)})" for ln in lanes]
-    norms = ", ".join(f"_error_norm(h{ln}, z{ln}, zt{ln}, K{ln}, rtol, atol)" for ln in lanes)
-    return lines + [f"    return {norms}"]
-
-
-def _trials(A: np.ndarray, B: np.ndarray, C: np.ndarray, n_stages: int) -> list[str]:
-    return [*_trial(A, B, C, n_stages), "", "", *_trial(A, B, C, n_stages, ("0", "1"))]
+def _trial(A: np.ndarray, B: np.ndarray, C: np.ndarray, n_stages: int) -> list[str]:
+    return ["@jit",
+            "def _trial(t, h, z, d, m, P, w, K, zt, rtol, atol):",
+            '    """One trial step (see hgo.engine.tableau); returns the error norm."""',
+            *_stages(A, C, range(1, n_stages), "zt"),
+            "    for i in range(NZ):",
+            f"        zt[i] = z[i] + h * ({_combination(B)})",
+            f"    system_rhs(t + h, zt, d, m, P, w, {_stage(n_stages)})",
+            "    return _error_norm(h, z, zt, K, rtol, atol)"]
 
 
 _SCALE = "atol + rtol * max(abs(z[i]), abs(zt[i]))"
@@ -107,7 +84,7 @@ def _dopri5() -> list[str]:
              f"        e = h * ({_combination(RK45.E)}) / ({_SCALE})",
              "        err += e * e",
              "    return math.sqrt(err / NZ)", "", "",
-             *_trials(RK45.A, RK45.B, RK45.C, n), "", "",
+             *_trial(RK45.A, RK45.B, RK45.C, n), "", "",
              "@ijit",
              "def _dense_prep(t, h, z, zt, d, m, P, w, K, F, scratch):",
              '    """F_q = h * sum_j P[j, q] K_j (no extra evaluation)."""',
@@ -140,7 +117,7 @@ def _dop853() -> list[str]:
              "    if e5 == 0.0 and e3 == 0.0:",
              "        return 0.0",
              "    return abs(h) * e5 / math.sqrt((e5 + 0.01 * e3) * NZ)", "", "",
-             *_trials(A, dop853.B, C, n), "", "",
+             *_trial(A, dop853.B, C, n), "", "",
              "@jit",
              "def _dense_prep(t, h, z, zt, d, m, P, w, K, F, scratch):",
              '    """Three extra stages, then F_0 = zt - z, F_1 = h K_0 - F_0,'
