@@ -46,16 +46,15 @@ def _state_status(z, bound):
     return 0
 
 
-@jit
-def _n_common_work(nz):
-    """Length of the work vector the integrators share: w, y, u, xh, sq, prev, win, m."""
-    return NW + NY + NU + NXH + 2 * (NXH + NOBS) + 1 + NY
+# Length of the work vector the integrators share: w, y, u, xh, sq, prev, win, m
+# (a global int: a constant for numba, not one more function to compile).
+N_COMMON_WORK = NW + NY + NU + NXH + 2 * (NXH + NOBS) + 1 + NY
 
 
 @ijit
 def _common_views(work, o):
     """Views of the work vector shared by the integrators, from offset o:
-    w, y, u, xh, sq, prev, win, m (lengths as in ``_n_common_work``)."""
+    w, y, u, xh, sq, prev, win, m (lengths as in ``N_COMMON_WORK``)."""
     w = view(work, o, o + NW)
     y = view(work, o + NW, o + NW + NY)
     u = view(work, o + NW + NY, o + NW + NY + NU)
@@ -171,7 +170,7 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
     functions re-optimises and re-emits the whole inlined body, which cost seconds of
     compilation.
     """
-    work = np.zeros(5 * z.shape[0] + _n_common_work(z.shape[0]))
+    work = np.zeros(5 * z.shape[0] + N_COMMON_WORK)
     z, d, P, noise, acc = borrow(z), borrow(d), borrow(P), borrow(noise), borrow(acc)
     Z, D, Y, M, U, XH = borrow(Z), borrow(D), borrow(Y), borrow(M), borrow(U), borrow(XH)
     nz = NZ
@@ -230,26 +229,27 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
 # (N_K stages rows, N_F dense-output rows, FSAL_STAGE, ERR_EXP) and its functions
 # _trial, _dense_prep, _dense_eval come before this section (hgo.engine.tableau).
 @jit
-def _rms(a, z, rtol, atol):
-    s = 0.0
-    for i in range(a.shape[0]):
-        s += (a[i] / (atol + rtol * abs(z[i]))) ** 2
-    return math.sqrt(s / a.shape[0])
-
-
-@jit
 def _initial_step(t, z, d, m, P, w, k1, k2, zt, rtol, atol, h_max):
-    """Hairer's starting step (Solving ODEs I, II.4) from f0 = k1; uses 1 evaluation."""
-    d0 = _rms(z, z, rtol, atol)
-    d1 = _rms(k1, z, rtol, atol)
+    """Hairer's starting step (Solving ODEs I, II.4) from f0 = k1; uses 1 evaluation.
+
+    The RMS norms are written out here (not a helper): one function less to compile."""
+    d0 = 0.0
+    d1 = 0.0
+    for i in range(NZ):
+        sc = atol + rtol * abs(z[i])
+        d0 += (z[i] / sc) ** 2
+        d1 += (k1[i] / sc) ** 2
+    d0 = math.sqrt(d0 / NZ)
+    d1 = math.sqrt(d1 / NZ)
     h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
     h0 = min(h0, h_max)
-    for i in range(z.shape[0]):
+    for i in range(NZ):
         zt[i] = z[i] + h0 * k1[i]
     system_rhs(t + h0, zt, d, m, P, w, k2)
-    for i in range(z.shape[0]):
-        zt[i] = k2[i] - k1[i]
-    d2 = _rms(zt, z, rtol, atol) / h0
+    d2 = 0.0
+    for i in range(NZ):
+        d2 += ((k2[i] - k1[i]) / (atol + rtol * abs(z[i]))) ** 2
+    d2 = math.sqrt(d2 / NZ) / h0
     dm = max(d1, d2)
     h1 = max(1e-6, h0 * 1e-3) if dm <= 1e-15 else (0.01 / dm) ** -ERR_EXP
     return min(100.0 * h0, h1, h_max)
@@ -264,7 +264,7 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
     Without a record (an ensemble member), output instants before the metrics window
     are skipped: nothing would read them.
     """
-    work = np.zeros((N_K + N_F + 2) * z.shape[0] + d.shape[0] + _n_common_work(z.shape[0]))
+    work = np.zeros((N_K + N_F + 2) * z.shape[0] + d.shape[0] + N_COMMON_WORK)
     z, d, P, noise, acc = borrow(z), borrow(d), borrow(P), borrow(noise), borrow(acc)
     Z, D, Y, M, U, XH = borrow(Z), borrow(D), borrow(Y), borrow(M), borrow(U), borrow(XH)
     nz = NZ
