@@ -81,10 +81,13 @@ def _stages(A: np.ndarray, C: np.ndarray, first: int, stop: int, target: str) ->
     return constants, lines
 
 
-def _trial(A: np.ndarray, B: np.ndarray, C: np.ndarray, n_stages: int) -> Code:
+def _trial(A: np.ndarray, B: np.ndarray, C: np.ndarray, n_stages: int, norm: Code) -> Code:
+    """``_trial``: the stages, the solution, then ``norm`` (lines ending in ``return``
+    the error norm; written into the function rather than called: one function less to
+    compile)."""
     constants, stages = _stages(A, C, 1, n_stages, "zt")
     consts, sums = _sums("B", B[None, :], "        ")
-    return constants + consts, [
+    return constants + consts + norm[0], [
         "@jit",
         "def _trial(t, h, z, d, m, P, w, K, zt, rtol, atol):",
         '    """One trial step (see hgo.engine.tableau); returns the error norm."""',
@@ -93,7 +96,7 @@ def _trial(A: np.ndarray, B: np.ndarray, C: np.ndarray, n_stages: int) -> Code:
         *sums,
         "        zt[i] = z[i] + h * a0",
         f"    system_rhs(t + h, zt, d, m, P, w, view(K, {n_stages} * NZ, {n_stages + 1} * NZ))",
-        "    return _error_norm(h, z, zt, K, rtol, atol)"]
+        *norm[1]]
 
 
 def _dense_rows(W: np.ndarray, first: int) -> Code:
@@ -111,20 +114,18 @@ def _dopri5() -> Code:
     n = RK45.n_stages
     P = RK45.P  # (n + 1, 4): zo = z + h * sum_q th^(q+1) sum_j P[j, q] K_j
     c_err, err = _sums("E", RK45.E[None, :], "        ")
-    c_trial, trial = _trial(RK45.A, RK45.B, RK45.C, n)
+    norm = ["    # error norm: RMS of h * sum_j E_j K_j over atol + rtol * max(|z|, |zt|)",
+            "    err = 0.0",
+            "    for i in range(NZ):",
+            *err,
+            f"        e = h * a0 / ({_SCALE})",
+            "        err += e * e",
+            "    return math.sqrt(err / NZ)"]
+    c_trial, trial = _trial(RK45.A, RK45.B, RK45.C, n, (c_err, norm))
     c_dense, dense = _dense_rows(P.T, 0)
     constants = ["N_K = 7", "N_F = 4", f"FSAL_STAGE = {n}", "ERR_EXP = -1.0 / 5.0",
-                 *c_err, *c_trial, *c_dense]
+                 *c_trial, *c_dense]
     return constants, [
-        "@ijit",
-        "def _error_norm(h, z, zt, K, rtol, atol):",
-        '    """RMS of h * sum_j E_j K_j over atol + rtol * max(|z|, |zt|)."""',
-        "    err = 0.0",
-        "    for i in range(NZ):",
-        *err,
-        f"        e = h * a0 / ({_SCALE})",
-        "        err += e * e",
-        "    return math.sqrt(err / NZ)", "", "",
         *trial, "", "",
         "@ijit",
         "def _dense_prep(t, h, z, zt, d, m, P, w, K, F, scratch):",
@@ -141,27 +142,25 @@ def _dop853() -> Code:
     n, n_ext, n_f = dop853.N_STAGES, dop853.N_STAGES_EXTENDED, dop853.INTERPOLATOR_POWER
     A, C, D = dop853.A, dop853.C, dop853.D
     c_err, err = _sums("E53", np.vstack([dop853.E5, dop853.E3]), "        ")
-    c_trial, trial = _trial(A, dop853.B, C, n)
+    norm = ["    # error norm: DOP853's combined |h| e5^2 / sqrt(N (e5^2 + 0.01 e3^2))",
+            "    e5 = 0.0",
+            "    e3 = 0.0",
+            "    for i in range(NZ):",
+            f"        sc = {_SCALE}",
+            *err,
+            "        a5 = a0 / sc",
+            "        a3 = a1 / sc",
+            "        e5 += a5 * a5",
+            "        e3 += a3 * a3",
+            "    if e5 == 0.0 and e3 == 0.0:",
+            "        return 0.0",
+            "    return abs(h) * e5 / math.sqrt((e5 + 0.01 * e3) * NZ)"]
+    c_trial, trial = _trial(A, dop853.B, C, n, (c_err, norm))
     c_extra, extra = _stages(A, C, n + 1, n_ext, "scratch")
     c_dense, dense = _dense_rows(D, 3)
     constants = [f"N_K = {n_ext}", f"N_F = {n_f}", f"FSAL_STAGE = {n}",
-                 "ERR_EXP = -1.0 / 8.0", *c_err, *c_trial, *c_extra, *c_dense]
+                 "ERR_EXP = -1.0 / 8.0", *c_trial, *c_extra, *c_dense]
     return constants, [
-        "@ijit",
-        "def _error_norm(h, z, zt, K, rtol, atol):",
-        '    """DOP853\'s combined estimate |h| e5^2 / sqrt(N (e5^2 + 0.01 e3^2))."""',
-        "    e5 = 0.0",
-        "    e3 = 0.0",
-        "    for i in range(NZ):",
-        f"        sc = {_SCALE}",
-        *err,
-        "        a5 = a0 / sc",
-        "        a3 = a1 / sc",
-        "        e5 += a5 * a5",
-        "        e3 += a3 * a3",
-        "    if e5 == 0.0 and e3 == 0.0:",
-        "        return 0.0",
-        "    return abs(h) * e5 / math.sqrt((e5 + 0.01 * e3) * NZ)", "", "",
         *trial, "", "",
         "@jit",
         "def _dense_prep(t, h, z, zt, d, m, P, w, K, F, scratch):",
@@ -191,7 +190,7 @@ def _dop853_horner(n_f: int) -> str:
 
 
 def method_source(method: str) -> str:
-    """Constants and ``_error_norm``, ``_trial``, ``_dense_prep``, ``_dense_eval`` of
+    """Constants and ``_trial``, ``_dense_prep``, ``_dense_eval`` of
     ``method`` (one of :data:`ADAPTIVE`) as kernel source text."""
     constants, lines = {"dopri5": _dopri5, "dop853": _dop853}[method]()
     return (f"# {method}: generated by hgo.engine.tableau from scipy's coefficients\n"
