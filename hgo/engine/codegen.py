@@ -294,21 +294,20 @@ def _layout_key(system: System, method: str, compiled: bool) -> tuple:
 
 def _decorators(compiled: bool) -> dict[str, object]:
     if not compiled:
-        return {"jit": lambda fn: fn, "ejit": lambda fn: fn, "pjit": lambda fn: fn,
-                "prange": range, "view": view_function(False),
-                "borrow": borrow_function(False), "ijit": lambda fn: fn}
+        return {"jit": lambda fn: fn, "pjit": lambda fn: fn, "prange": range,
+                "view": view_function(False), "borrow": borrow_function(False),
+                "ijit": lambda fn: fn}
     import numba
 
     # error_model="numpy": a division by zero gives inf/nan (caught as status 1) instead of
     # raising, and drops a branch from every division of the hot loop.
     opts = {"cache": True, "error_model": "numpy", "fastmath": set(FASTMATH)}
-    # Only the entry points (``ejit``: integrate, integrate_ensemble) are called from
-    # Python; every other function skips its CPython wrapper, which numba would otherwise
-    # compile through LLVM too (measured: 15 % of a fresh compile of problem B).
+    # Inlined helpers are never called from Python: they skip the CPython wrapper numba
+    # would otherwise compile through LLVM too (measured: ~15 % of a fresh compile of
+    # problem B). ``jit`` functions keep theirs: without it _trial ran slower.
     internal = {**opts, "no_cpython_wrapper": True}
     return {
         "jit": numba.njit(**opts),
-        "ejit": numba.njit(**opts),
         # small helpers called per output sample: inlined by numba itself
         "ijit": numba.njit(**internal, forceinline=True),
         "pjit": numba.njit(**opts, parallel=True),

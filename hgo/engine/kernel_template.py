@@ -1,7 +1,7 @@
 """Integrators of the composed system; this file is *source text* for generated kernels.
 
-:mod:`hgo.engine.codegen` prepends a header that defines ``jit``, ``ejit`` (entry points,
-callable from Python), ``ijit`` (inlined), ``pjit``, ``prange``,
+:mod:`hgo.engine.codegen` prepends a header that defines ``jit``, ``ijit`` (inlined, not
+callable from Python), ``pjit``, ``prange``,
 ``view``, the layout constants and the composed functions ``system_rhs``,
 ``system_update``, ``system_outputs`` and ``system_stiffness``, then appends the section
 ``common`` and the section of the one integrator the run asks for (``rk4``, or
@@ -161,7 +161,7 @@ def _rk4_step(t, h, z, d, m, P, w, k1, k2, k3, k4, zt):
         z[i] += h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
 
 
-@ejit
+@jit
 def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, rho_const,
               bound, t_window, Z, D, Y, M, U, XH, acc):
     """Integrate one run (RK4). Returns (status, number of output samples, stop time).
@@ -255,7 +255,7 @@ def _initial_step(t, z, d, m, P, w, k1, k2, zt, rtol, atol, h_max):
     return min(100.0 * h0, h1, h_max)
 
 
-@ejit
+@jit
 def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, rho_const,
               bound, t_window, Z, D, Y, M, U, XH, acc):
     """Integrate one run (adaptive). Returns (status, number of output samples, stop time).
