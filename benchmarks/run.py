@@ -38,6 +38,10 @@ RTOL_B, ATOL_B = 1e-8, 1e-10  # problem B: solve_ivp, the hand kernel and hgo's 
 # hgo's choice for problem B: DOP853 at a looser rtol, still more accurate than solve_ivp
 # at 1e-8 (the benchmark prints both errors and checks it)
 FAST_B = {"method": "dop853", "rtol": 1e-7, "atol": 1e-9}
+# work-precision of problem B: hgo DOP853 at these rtol (atol = rtol / 100, FAST_B among
+# them) and solve_ivp RK45 on (20) at these rtol (atol = rtol / 100; full run only)
+WP_RTOLS_HGO = (1e-6, 3e-7, 1e-7, 1e-8, 1e-9)
+WP_RTOLS_IVP = (1e-6, 1e-7, 1e-9)
 B_T, B_DT = 200.0, 0.01
 A_T, A_NOISE_DT, A_DT_OUT, A_NOISE = 20.0, 0.0008, 0.004, 0.0016
 A_SWITCH = 1.0
@@ -233,6 +237,15 @@ def main() -> None:
           f"hgo {FAST_B['method']} error <= both solve_ivp errors: "
           f"{'yes' if err_b['fast'] <= min(err_b['ivp'], err_b['ivp5']) else 'NO'}")
 
+    rows_wp, tb_equal = b_work_precision(sysB, ref_b, (tb_ivp, min(err_b["ivp"], err_b["ivp5"])),
+                                        quick)
+    table("Problem B, work-precision: time against max error (the same grid and reference); "
+          "target 1 compares solve_ivp RK45 rtol 1e-8 with the fastest hgo setting at equal "
+          "or better accuracy",
+          ["method", "time (s)", "max error", "error <= solve_ivp RK45 rtol 1e-8 (20)",
+           "speedup vs solve_ivp RK45 rtol 1e-8 (20)"], rows_wp)
+    print(f"\nB at equal or better accuracy: {tb_ivp / tb_equal:.0f}x")
+
     # ---------------- problem B, ensemble
     n_ens = 1000
     p2, e0 = ensemble_members(n_ens)
@@ -387,8 +400,36 @@ def main() -> None:
     print(f"\nper-member cost at {sizes[-1]} vs {sizes[1]}: {per[-1] / per[1]:.2f}x")
     print(f"\ntotal benchmark time {time.perf_counter() - t_start:.0f} s")
     print(f"speedup_vs_solve_ivp: A={ta_ivp / ta_hgo:.0f} B={tb_ivp / tb_fast:.0f} "
+          f"B_equal_accuracy={tb_ivp / tb_equal:.0f} "
           f"B_same_ode={tb_ivp5 / tb_fast:.0f} ensemble={te_ivp / te_fast:.0f} "
           f"(ensemble_wall={te_fast:.2f}s)")
+
+
+def b_work_precision(system: System, ref: np.ndarray, ivp: tuple[float, float],
+                     quick: bool) -> tuple[list[list], float]:
+    """Rows (method, time, error, error <= solve_ivp's, speedup) of hgo DOP853 over
+    ``WP_RTOLS_HGO`` (timed interleaved) and of solve_ivp RK45 on (20) over
+    ``WP_RTOLS_IVP``; and the time of the fastest hgo setting at least as accurate as
+    solve_ivp RK45 at rtol 1e-8 (``ivp`` = its time and error)."""
+    t_ivp, err_ivp = ivp
+    sols = [b_solver(method="dop853", rtol=r, atol=r / 100) for r in WP_RTOLS_HGO]
+    for sol in sols:
+        simulate(system, sol, no_noise(1))
+    timed = interleaved_median_times([lambda sol=sol: simulate(system, sol, no_noise(1))
+                                      for sol in sols], FAST_REPS)
+    runs = [(f"hgo simulate, {fast_label(sol.method, sol.rtol, sol.atol)}", t,
+             float(np.abs(b_errors(tr) - ref).max())) for sol, (t, tr) in zip(sols, timed,
+                                                                              strict=True)]
+    t_equal = min(t for _, t, err in runs if err <= err_ivp)
+    for r in () if quick else WP_RTOLS_IVP:
+        t, (_, y) = median_time(lambda r=r: bl.b_solve_ivp((3.0, 3.0), 1.5, B_T, B_DT, r,
+                                                            r / 100, full=False), 1)
+        runs.append((f"solve_ivp RK45 rtol {r:g} atol {r / 100:g} (20)", t,
+                     float(np.abs(y - ref).max())))
+    runs.append((f"solve_ivp RK45 rtol {RTOL_B:g} atol {ATOL_B:g} (20)", t_ivp, err_ivp))
+    rows = [[label, t, err, "yes" if err <= err_ivp else "no", t_ivp / t]
+            for label, t, err in sorted(runs, key=lambda row: row[2])]
+    return rows, t_equal
 
 
 def logging_row(label: str, system: System, solver: SolverSettings, noise: Noise, reps: int,
