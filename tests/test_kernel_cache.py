@@ -56,3 +56,12 @@ def test_changed_helper_invalidates_the_cached_kernel(tmp_path):
     (tmp_path / "userplant.py").write_text(PLANT.format(k="2.0"))
     os.utime(tmp_path / "userplant.py", (1e9 + 10, 1e9 + 10))  # a distinct mtime for numba
     assert abs(_run(tmp_path) - 2.0) < 1e-12
+
+
+def test_components_are_not_cached_apart_from_their_kernel(tmp_path):
+    """numba's cache key ignores compile options: a component's own cache entry, written
+    under other options, would be reused by the next kernel. Only helpers are cached."""
+    (tmp_path / "userplant.py").write_text(PLANT.format(k="1.0"))
+    _run(tmp_path)
+    cached = {p.name.split("-")[0] for p in (tmp_path / "numba").rglob("userplant.*.nbi")}
+    assert cached == {"userplant.rate"}
