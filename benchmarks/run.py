@@ -160,8 +160,9 @@ def _first_run(code: str, env: dict) -> float:
 
 def compile_times(problem: str) -> tuple[float, float, float]:
     """Time from the first simulate() call to its return, minus one steady-state run, in a
-    fresh process: (empty caches, only the kernel new (numba's cache of the component
-    functions kept, as for a new combination of known components), everything cached)."""
+    fresh process: (empty caches, only the kernel new (numba's cache of the components'
+    helpers kept, as for a new combination of known components; the components themselves
+    are compiled into every new kernel), everything cached)."""
     code = COMPILE_SNIPPET.format(bench=str(Path(__file__).resolve().parent), problem=problem)
     with tempfile.TemporaryDirectory() as cache, tempfile.TemporaryDirectory() as kernels:
         # NUMBA_CACHE_DIR too: the component functions are cached by numba next to their
@@ -353,7 +354,7 @@ def main() -> None:
     for prob in (("B853",) if quick else ("B", "B853", "A")):
         rows_c.append([labels[prob], *compile_times(prob)])
     table("Compilation (fresh process): time of the first simulate() minus a steady run",
-          ["problem", "empty caches (s)", "new kernel, components cached (s)",
+          ["problem", "empty caches (s)", "new kernel, helpers cached (s)",
            "later process, all cached (s)"], rows_c)
 
     # ---------------- logging
