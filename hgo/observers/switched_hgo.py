@@ -95,7 +95,7 @@ def nominal_model(z, y, u, p, r):
 
 def f(t, z, d, y, u, p, dz):
     """Ahrens & Khalil (26) with H = H1 (27) or H2 (28) as selected by d[0]."""
-    r = int(p[0])
+    r = z.shape[0]  # = p[0]; the view's length is a compile-time constant: loops unroll
     h0 = _N_HEAD + 3 * r if d[0] < 1.5 else _N_HEAD + 4 * r  # precomputed H1 or H2
     e = y[0] - z[0]
     for i in range(r - 1):
@@ -141,7 +141,7 @@ def update(t, z, d, y, u, p):
 
 def estimate(t, z, d, p, xhat):
     """The saturated estimate x^ fed to the controller and to the error metrics."""
-    r = int(p[0])
+    r = z.shape[0]
     for i in range(r):
         xhat[i] = saturated(i, z[i], p)
 

@@ -57,7 +57,7 @@ def gain_rate(law, e, r, n, p1, p2, b):
 
 def f(t, z, d, y, u, p, dz):
     """Sanfelice & Praly (5)-(7) with the law selected by p[1]."""
-    n = int(p[0])
+    n = z.shape[0] - 1  # = p[0]; the view's length is a compile-time constant: loops unroll
     K = p[5:5 + n]
     M = p[5 + n:5 + n + n * n]
     c = p[5 + n + n * n:5 + 2 * n + n * n]
@@ -76,7 +76,7 @@ def f(t, z, d, y, u, p, dz):
 
 def estimate(t, z, d, p, xhat):
     """x^ = z[:n]."""
-    n = int(p[0])
+    n = xhat.shape[0]
     for i in range(n):
         xhat[i] = z[i]
 
