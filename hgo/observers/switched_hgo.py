@@ -113,7 +113,7 @@ def stiffness(t, z, d, p):
     when T_d = 0 (tests/test_ak_claims.py::test_claim1_no_delay_switches_repeatedly), so
     the paper's experiments keep the constant worst-case ``spectral_radius``.
     """
-    r = int(p[0])
+    r = z.shape[0]
     return p[_N_HEAD + 5 * r] if d[0] < 1.5 else p[_N_HEAD + 5 * r + 1]
 
 
