@@ -12,6 +12,7 @@ from __future__ import annotations
 import functools
 import logging
 import re
+import time
 import uuid
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -212,15 +213,21 @@ def run(cfg: DictConfig, out_dir: str | Path) -> RunResult:
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     exp = build(cfg)
+    t0 = time.perf_counter()
     traj = run_experiment(exp)
+    t_sim = time.perf_counter() - t0
     post = postprocess(cfg, exp, traj) if traj.ok else PostOutput()
     series = signals(exp.system, traj) + post.series
     status_text = (f"ok: t = 0 .. {traj.t_stop:g} s" if traj.ok else
                    f"failed at t = {traj.t_stop:g} s: {traj.message}")
+    t1 = time.perf_counter()
     write_recording(out_dir / "recording.rrd", traj.t, series,
                     recording_id=recording_id(out_dir), blueprint=blueprint(exp.system, series),
                     text={"/run/status": status_text,
                           "/run/config": job_config_yaml(cfg)})
+    log.info("simulated in %.3f s; recording of %d samples x %d series written in %.3f s",
+             t_sim, len(traj.t), sum(len(s.names) for s in series),
+             time.perf_counter() - t1)
     table = metrics_table(exp.system, traj.acc, traj.status, traj.t_stop, post.bounds,
                           post.rows)
     table.insert(0, "run", cfg.get("run_name", "run"))
