@@ -225,7 +225,7 @@ def run(cfg: DictConfig, out_dir: str | Path) -> RunResult:
                     recording_id=recording_id(out_dir), blueprint=blueprint(exp.system, series),
                     text={"/run/status": status_text,
                           "/run/config": job_config_yaml(cfg)})
-    log.info("simulated in %.3f s; recording of %d samples x %d series written in %.3f s",
+    log.info("simulated in %.3f s; recording of %d samples x %d columns written in %.3f s",
              t_sim, len(traj.t), sum(len(s.names) for s in series),
              time.perf_counter() - t1)
     table = metrics_table(exp.system, traj.acc, traj.status, traj.t_stop, post.bounds,
