@@ -9,11 +9,14 @@ is enough (the factory's signature then checks the keys).
 
 from __future__ import annotations
 
-import importlib
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from hydra.core.config_store import ConfigStore
+from omegaconf import DictConfig, open_dict
+
+from hgo.papers import paper_modules
 
 
 @dataclass
@@ -94,13 +97,29 @@ def register_configs() -> None:
     cs.store(group="schema/solver", name="solver", node=SolverConf)
     cs.store(group="schema", name="metrics", node=MetricsConf)
     cs.store(group="schema/ensemble", name="ensemble", node=EnsembleConf)
-    for module, function in _EXTENSIONS:
-        try:
-            getattr(importlib.import_module(module), function)()
-        except ModuleNotFoundError as err:
-            if err.name != module:
-                raise
+    for module in paper_modules("config"):  # each paper's own schemas
+        module.register_configs()
 
 
-# Modules that store the schemas of one paper's components, and their register function.
-_EXTENSIONS = [("hgo.sp_config", "register_sp_configs"), ("hgo.ak_config", "register_ak_configs")]
+def conf_dir() -> Path:
+    """The ``conf/`` directory of the repository hgo runs from."""
+    return Path(__file__).resolve().parents[1] / "conf"
+
+
+def compose(overrides: list[str], out_dir: Path | None = None) -> DictConfig:
+    """Compose ``conf/config.yaml`` with ``overrides`` as ``experiments/run.py`` would
+    (Hydra's node included); with ``out_dir``, Hydra's run directory is set to it."""
+    from hydra import compose as hydra_compose
+    from hydra import initialize_config_dir
+    from hydra.core.global_hydra import GlobalHydra
+    from hydra.core.hydra_config import HydraConfig
+
+    register_configs()
+    GlobalHydra.instance().clear()
+    with initialize_config_dir(version_base="1.3", config_dir=str(conf_dir())):
+        cfg = hydra_compose("config", overrides=overrides, return_hydra_config=True)
+    if out_dir is not None:
+        with open_dict(cfg):
+            cfg.hydra.runtime.output_dir = str(out_dir)
+        HydraConfig.instance().set_config(cfg)
+    return cfg

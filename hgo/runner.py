@@ -208,16 +208,37 @@ def _figures(cfg: DictConfig, result: RunResult) -> list[Path]:
     return paths
 
 
-def run(cfg: DictConfig, out_dir: str | Path) -> RunResult:
-    """Build, simulate and write ``recording.rrd``, ``metrics.csv`` and figures."""
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+@dataclass
+class MemoryRun:
+    """A run composed, simulated and post-processed, nothing written yet."""
+
+    experiment: Experiment
+    trajectory: Trajectory
+    post: PostOutput
+    metrics: pd.DataFrame
+    simulate_seconds: float
+
+
+def simulate_config(cfg: DictConfig) -> MemoryRun:
+    """Build, simulate, post-process and tabulate the metrics of a composed config."""
     exp = build(cfg)
     t0 = time.perf_counter()
     traj = run_experiment(exp)
     t_sim = time.perf_counter() - t0
     post = postprocess(cfg, exp, traj) if traj.ok else PostOutput()
-    series = signals(exp.system, traj) + post.series
+    table = metrics_table(exp.system, traj.acc, traj.status, traj.t_stop, post.bounds,
+                          post.rows)
+    table.insert(0, "run", cfg.get("run_name", "run"))
+    return MemoryRun(exp, traj, post, table, t_sim)
+
+
+def run(cfg: DictConfig, out_dir: str | Path) -> RunResult:
+    """Build, simulate and write ``recording.rrd``, ``metrics.csv`` and figures."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    mem = simulate_config(cfg)
+    exp, traj, table = mem.experiment, mem.trajectory, mem.metrics
+    series = signals(exp.system, traj) + mem.post.series
     status_text = (f"ok: t = 0 .. {traj.t_stop:g} s" if traj.ok else
                    f"failed at t = {traj.t_stop:g} s: {traj.message}")
     t1 = time.perf_counter()
@@ -226,11 +247,8 @@ def run(cfg: DictConfig, out_dir: str | Path) -> RunResult:
                     text={"/run/status": status_text,
                           "/run/config": job_config_yaml(cfg)})
     log.info("simulated in %.3f s; recording of %d samples x %d columns written in %.3f s",
-             t_sim, len(traj.t), sum(len(s.names) for s in series),
+             mem.simulate_seconds, len(traj.t), sum(len(s.names) for s in series),
              time.perf_counter() - t1)
-    table = metrics_table(exp.system, traj.acc, traj.status, traj.t_stop, post.bounds,
-                          post.rows)
-    table.insert(0, "run", cfg.get("run_name", "run"))
     table.to_csv(out_dir / "metrics.csv", index=False)
     log.info("metrics:\n%s", table.to_string(index=False))
     result = RunResult(exp, traj, table, out_dir, series)
@@ -239,4 +257,3 @@ def run(cfg: DictConfig, out_dir: str | Path) -> RunResult:
                                f"(outputs up to then are in {out_dir})")
     _figures(cfg, result)
     return result
-

@@ -1,6 +1,6 @@
 """Structured-config schemas of the Ahrens & Khalil (2008) components.
 
-Stored by :func:`register_ak_configs` (called from :func:`hgo.config.register_configs`):
+Stored by :func:`register_configs` (called from :func:`hgo.config.register_configs`):
 
 * ``schema/plant/dc_motor``: the field-controlled DC motor (38)-(39)
   (:func:`hgo.plants.dc_motor.dc_motor_plant`);
@@ -97,7 +97,7 @@ class AKMetricsConf:
     late_window: float = 1.0
 
 
-def register_ak_configs() -> None:
+def register_configs() -> None:
     """Store the schemas above in Hydra's ConfigStore (idempotent)."""
     cs = ConfigStore.instance()
     cs.store(group="schema/plant", name="dc_motor", node=DCMotorPlantConf)

@@ -1,6 +1,6 @@
 """Structured-config schemas of the Sanfelice & Praly components beyond the foundation.
 
-Stored by :func:`register_sp_configs` (called from :func:`hgo.config.register_configs`):
+Stored by :func:`register_configs` (called from :func:`hgo.config.register_configs`):
 
 * ``schema/observer/sp_collection``: the collection (21) of N observers
   (:func:`hgo.observers.collection.sp_collection`);
@@ -79,7 +79,7 @@ class SPBoundsConf:
     L: list[float] | None = None
 
 
-def register_sp_configs() -> None:
+def register_configs() -> None:
     """Store the schemas above in Hydra's ConfigStore (idempotent)."""
     cs = ConfigStore.instance()
     cs.store(group="schema/observer", name="sp_collection", node=SPCollectionConf)

@@ -1,0 +1,1 @@
+"""Ahrens & Khalil (2008): switched-gain high-gain observer in closed loop (DC motor)."""
