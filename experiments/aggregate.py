@@ -155,7 +155,7 @@ def markdown(rows: pd.DataFrame, labels: dict[str, str], skipped: list[str],
 def comparison_figure(sweep: Path, labels: dict[str, str], exclude: set[str], path: Path,
                       observer: str) -> list[str]:
     """Fig. 3-style comparison from the recordings; returns the jobs left out, with why."""
-    from hgo.figures.sp import fig3_compare
+    from hgo.papers.sanfelice_praly.figures import fig3_compare
     from hgo.recording import read_recording
 
     runs, left_out = [], []

@@ -24,7 +24,7 @@ if str(ROOT) not in sys.path:  # run from a checkout without installing
 
 
 def main(argv: list[str] | None = None) -> int:
-    from hgo.figures.ak import tradeoff_report
+    from hgo.papers.ahrens_khalil.figures import tradeoff_report
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("sweep", help="sweep directory (outputs/multirun/ak_tradeoff/<date_time>)")

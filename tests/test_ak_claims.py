@@ -19,7 +19,7 @@ import pytest
 from conftest import compose_config
 from omegaconf import open_dict
 
-from hgo.postprocess.ak import analyse_tradeoff
+from hgo.papers.ahrens_khalil.postprocess import analyse_tradeoff
 from hgo.runner import build, postprocess, run_experiment
 
 LOOPS = ("switched", "fixed_eps2", "fixed_eps1")
@@ -193,7 +193,7 @@ def test_tradeoff_report_skips_failed_jobs(tmp_path):
     import pandas as pd
     import yaml
 
-    from hgo.design.switched_gain import ultimate_bound
+    from hgo.papers.ahrens_khalil.design import ultimate_bound
 
     c1, c2 = 0.2, 0.5
     k = 0

@@ -16,7 +16,10 @@ from scipy.optimize import minimize_scalar
 
 from hgo.controllers import open_loop
 from hgo.controllers.dc_motor_speed import dc_motor_speed_controller, velocity_reference
-from hgo.design.switched_gain import (
+from hgo.engine.simulate import RK4_STABILITY, Noise, SolverSettings, simulate
+from hgo.engine.system import System
+from hgo.observers.switched_hgo import DISC_NAMES, switched_hgo
+from hgo.papers.ahrens_khalil.design import (
     eps1_from_eps2,
     fit_power_law,
     fit_ultimate_bound,
@@ -24,9 +27,6 @@ from hgo.design.switched_gain import (
     optimal_eps,
     ultimate_bound,
 )
-from hgo.engine.simulate import RK4_STABILITY, Noise, SolverSettings, simulate
-from hgo.engine.system import System
-from hgo.observers.switched_hgo import DISC_NAMES, switched_hgo
 from hgo.plants.dc_motor import dc_motor_plant
 
 T_END = 2.0

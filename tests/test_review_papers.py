@@ -9,8 +9,8 @@ import numpy as np
 from hgo.engine.simulate import Noise, SolverSettings, simulate
 from hgo.engine.system import System
 from hgo.observers.triangular import triangular_hgo
+from hgo.papers.sanfelice_praly.postprocess import sp_bounds
 from hgo.plants.sp_linear import sp_linear_plant
-from hgo.postprocess.sp_bounds import sp_bounds
 
 
 def test_sp_bounds_keeps_a_lone_gamma_or_L_override():

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hgo.theory.sp_bounds import (
+from hgo.papers.sanfelice_praly.bounds import (
     B_io,
     Reading14,
     constant_gain_bound,
@@ -14,7 +14,7 @@ from hgo.theory.sp_bounds import (
     sp_bound_table,
     sp_setup,
 )
-from hgo.theory.sp_conditions import check_conditions, design_gains
+from hgo.papers.sanfelice_praly.theory import check_conditions, design_gains
 
 # Sanfelice & Praly Section 3, example (18)-(19) and Fig. 2.
 B = 0.28

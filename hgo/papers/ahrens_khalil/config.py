@@ -13,7 +13,7 @@ Stored by :func:`register_configs` (called from :func:`hgo.config.register_confi
   (:func:`hgo.controllers.open_loop.open_loop_controller`);
 * ``schema/postprocess/ak_metrics``: velocity tracking error e2 = x2 - r', transient and
   late-window metrics, switch log, ultimate bound of ||x - x^||
-  (:func:`hgo.postprocess.ak.ak_metrics`).
+  (:func:`hgo.papers.ahrens_khalil.postprocess.ak_metrics`).
 
 Defaults are the paper's Section 4 values where it gives them; the choices it leaves open
 (reference, controller gain, x3(0)) are documented in the factories' modules.
@@ -92,7 +92,7 @@ class OpenLoopConf:
 class AKMetricsConf:
     """Windows (s) of the Ahrens & Khalil metrics; late_window: trailing [t_end - w, t_end]."""
 
-    _target_: str = "hgo.postprocess.ak.ak_metrics"
+    _target_: str = "hgo.papers.ahrens_khalil.postprocess.ak_metrics"
     transient: float = 0.5
     late_window: float = 1.0
 

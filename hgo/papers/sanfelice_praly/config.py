@@ -9,7 +9,7 @@ Stored by :func:`register_configs` (called from :func:`hgo.config.register_confi
 * ``schema/postprocess/oscillation``: period and amplitude of the steady oscillation
   (:func:`hgo.postprocess.oscillation.oscillation`);
 * ``schema/postprocess/sp_bounds``: the bounds (11)-(15) and conditions (8)-(10), (13)
-  (:func:`hgo.postprocess.sp_bounds.sp_bounds`).
+  (:func:`hgo.papers.sanfelice_praly.postprocess.sp_bounds`).
 
 A YAML option extends one of them through its defaults list, e.g.
 ``- /schema/postprocess/notch@notch``.
@@ -68,7 +68,7 @@ class OscillationConf:
 class SPBoundsConf:
     """Sanfelice & Praly (8)-(15); K, b default to the observer's, gamma/L to the plant's."""
 
-    _target_: str = "hgo.postprocess.sp_bounds.sp_bounds"
+    _target_: str = "hgo.papers.sanfelice_praly.postprocess.sp_bounds"
     P: list[list[float]] = field(default_factory=lambda: [[1.0, -0.5], [-0.5, 0.5]])
     d0: float = 0.95
     d1: float = 3.0

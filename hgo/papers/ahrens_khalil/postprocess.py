@@ -127,7 +127,8 @@ class AKMetrics:
 
 
 def ak_metrics(transient: float = 0.5, late_window: float = 1.0) -> AKMetrics:
-    """Factory of the ``postprocess`` group (``_target_: hgo.postprocess.ak.ak_metrics``)."""
+    """Factory of the ``postprocess`` group
+    (``_target_: hgo.papers.ahrens_khalil.postprocess.ak_metrics``)."""
     return AKMetrics(float(transient), float(late_window))
 
 
@@ -166,7 +167,7 @@ class TradeoffAnalysis:
 
 
 def analyse_tradeoff(eps, mu, bound, r: int) -> TradeoffAnalysis:
-    from hgo.design.switched_gain import fit_power_law, fit_ultimate_bound, optimal_eps
+    from hgo.papers.ahrens_khalil.design import fit_power_law, fit_ultimate_bound, optimal_eps
 
     eps, mu, bound = (np.asarray(v, float).ravel() for v in (eps, mu, bound))
     ok = np.isfinite(bound) & (bound > 0)

@@ -17,7 +17,7 @@ For each observer with the sign-indefinite law (6) (:mod:`hgo.observers.triangul
   the noise actually applied) no bound of (14) is attached to the mean-error rows: they
   would promise what the theorem does not;
 * B_{i,o}(p1, p2) of (14), minimised over s > s_min (interpretation: the literal reading of
-  :mod:`hgo.theory.sp_bounds`), fills the ``bound`` column of the runner's
+  :mod:`hgo.papers.sanfelice_praly.bounds`), fills the ``bound`` column of the runner's
   ``mean_sq_error_<x_i>`` row of a triangular observer; rows ``s_star_<x_i>`` (the minimiser)
   and ``B_io_15_<x_i>`` (the form (15));
 * (13): row ``p2_lower_bound_13`` with empirical = the right-hand side of (13) at s = s_min,
@@ -39,12 +39,12 @@ import numpy as np
 from hgo.engine.simulate import Trajectory
 from hgo.engine.system import System
 from hgo.observers import collection, triangular
+from hgo.papers.sanfelice_praly.bounds import sp_bound_table
+from hgo.papers.sanfelice_praly.theory import check_conditions
 from hgo.plants import sp_linear
 from hgo.postprocess import PostOutput
 from hgo.postprocess.notch import window_mean_sq
 from hgo.postprocess.oscillation import window_slice
-from hgo.theory.sp_bounds import sp_bound_table
-from hgo.theory.sp_conditions import check_conditions
 
 PAPER_P = [[1.0, -0.5], [-0.5, 0.5]]
 

@@ -12,7 +12,8 @@ Per sweep (the three closed loops of ``ak_fig2``/``ak_fig3`` are three jobs):
 * :class:`SweepFigure`, a Hydra callback: at the end of the multirun, the e2 panels of every
   job stacked as in Figs. 2-3 (``fig2.png``/``fig3.png`` in the sweep directory), read back
   from the jobs' recordings. Hydra skips ``on_multirun_end`` when a job fails; then run
-  ``python -m hgo.figures.ak fig2 <sweep_dir>`` (it skips failed jobs and says so).
+  ``python -m hgo.papers.ahrens_khalil.figures fig2 <sweep_dir>`` (it skips failed jobs
+  and says so).
 * :func:`tradeoff_figure`: measured bound vs eps for each mu with the fitted (25), and
   eps* vs mu (used by ``experiments/ak_tradeoff.py``).
 """
@@ -29,7 +30,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from hgo.figures import save_figure
-from hgo.postprocess.ak import TRACKING
+from hgo.papers.ahrens_khalil.postprocess import TRACKING
 
 OBS_COLOURS = {"switched": "tab:blue", "fixed_eps2": "tab:green", "fixed_eps1": "tab:red"}
 
@@ -201,7 +202,7 @@ def tradeoff_figure(path, eps: np.ndarray, mu: np.ndarray, bound: np.ndarray, r:
                     global_fit: tuple[float, float] | None = None,
                     eps_star_grid: dict[float, float] | None = None) -> None:
     """Left: measured bound vs eps per mu, with the fitted (25); right: eps* vs mu."""
-    from hgo.design.switched_gain import ultimate_bound
+    from hgo.papers.ahrens_khalil.design import ultimate_bound
 
     mus = sorted(set(mu.tolist()))
     colours = plt.cm.viridis(np.linspace(0, 0.9, len(mus)))
@@ -293,7 +294,7 @@ def tradeoff_report(sweep: str | Path, out: str | Path | None = None) -> dict:
     """
     import pandas as pd
 
-    from hgo.postprocess.ak import analyse_tradeoff
+    from hgo.papers.ahrens_khalil.postprocess import analyse_tradeoff
 
     sweep = Path(sweep)
     out = Path(out) if out else sweep

@@ -28,7 +28,7 @@ def _series(result) -> dict[str, Series]:
 
 def _label(obs) -> str:
     """Law and p2 of an observer, from its parameter vector when it is one of ours."""
-    from hgo.postprocess.sp_bounds import law6_parameters
+    from hgo.papers.sanfelice_praly.postprocess import law6_parameters
 
     par = law6_parameters(obs)
     if obs.f.__module__ == "hgo.observers.triangular":

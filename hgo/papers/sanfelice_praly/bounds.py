@@ -470,7 +470,7 @@ def sp_bound_table(
     Parameters
     ----------
     K, P, b, d0, d1 :
-        Data satisfying (8)-(10) (see ``hgo.theory.sp_conditions.check_conditions``).
+        Data satisfying (8)-(10) (see ``hgo.papers.sanfelice_praly.theory.check_conditions``).
     gamma, L : numpy.ndarray
         Lemma 2.1 constants; plant (18): gamma = [nu2, 0], L = [nu1, 0].
     p1, p2 : float

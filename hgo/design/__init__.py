@@ -1,1 +1,0 @@
-"""Design helpers: gain and parameter choices derived from the papers' design rules."""
