@@ -1,31 +1,7 @@
-"""Hydra entry point: ``python experiments/run.py experiment=sp_fig1`` (add ``-m`` to sweep;
-``ensemble.size=N`` runs N members of the config in one compiled call).
+"""Hydra entry point: ``python experiments/run.py experiment=sp_fig1`` (add ``-m`` to sweep);
+the same as ``hgo run experiment=sp_fig1`` (see :mod:`hgo.app`)."""
 
-Each job writes into its Hydra run directory (under ``outputs/``): ``recording.rrd``
-(open with ``rerun <file>``), ``metrics.csv`` and the composed config in ``.hydra/``.
-"""
-
-from __future__ import annotations
-
-import hydra
-from hydra.core.hydra_config import HydraConfig
-from omegaconf import DictConfig
-
-from hgo.config import register_configs
-from hgo.ensemble_runner import run_ensemble
-from hgo.runner import run
-
-register_configs()
-
-
-@hydra.main(version_base="1.3", config_path="../conf", config_name="config")
-def main(cfg: DictConfig) -> None:
-    out_dir = HydraConfig.get().runtime.output_dir
-    if cfg.ensemble.size > 0:
-        run_ensemble(cfg, out_dir)
-    else:
-        run(cfg, out_dir)
-
+from hgo.app import main
 
 if __name__ == "__main__":
     main()

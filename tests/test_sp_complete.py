@@ -10,7 +10,6 @@ uses 70 s / 20 s (the copies lock their phases within ~40 s with kappa = 0.1).
 from __future__ import annotations
 
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -301,8 +300,7 @@ def test_aggregate_combines_jobs_and_skips_failed_ones(runs, tmp_path, capsys):
     one failed run: one CSV, a Markdown table with the overrides, the comparison figure."""
     import shutil
 
-    sys.path.insert(0, str(ROOT / "experiments"))
-    from aggregate import aggregate
+    from hgo.aggregate import aggregate
 
     sweep = tmp_path / "sweep"
     for k, p2 in enumerate(P2S):

@@ -1,0 +1,236 @@
+"""Combine the jobs of a Hydra sweep: one CSV, a Markdown table and a comparison figure.
+
+    python experiments/aggregate.py outputs/multirun/sp_fig3/<date_time> [--out DIR]
+    python -m hgo.aggregate outputs/multirun/sp_fig3/<date_time>      # the same
+
+Reads every ``job*/metrics.csv`` with the job's overrides (``job*/.hydra/overrides.yaml``)
+and writes, in the sweep directory (or ``--out``):
+
+* ``metrics_all.csv``: all rows of all jobs, with columns ``job`` and ``overrides``;
+* ``metrics_all.md``: the jobs and their overrides, then one table per observer with a
+  column per job (``empirical``, and ``<= bound`` with a check mark where a bound exists);
+* ``compare.png``: x^1, x^2 and r of the observer ``--observer`` (default
+  ``sign_indefinite``) of every job, read back from each ``recording.rrd``
+  (Sanfelice & Praly Fig. 3 for the ``sp_fig3`` sweep).
+
+A job without ``metrics.csv`` (it crashed before writing) is skipped and listed; a job whose
+run failed (status ``failed``) keeps its rows (status column) but is left out of the figure,
+and is listed too. Hydra skips ``on_multirun_end`` callbacks when a job fails, which is why
+this is a separate command. When all jobs succeed, the callback
+:class:`AggregateCallback` (set in ``conf/experiment/sp_fig3.yaml`` under ``hydra.callbacks``)
+runs the same aggregation at the end of the multirun (``_target_:
+hgo.aggregate.AggregateCallback``: importable from the installed package, so any launcher
+can run it).
+
+The three recordings of the sweep open together in the Rerun viewer (each job has its own
+recording id, so they do not merge):
+
+    rerun outputs/multirun/sp_fig3/<date_time>/job*/recording.rrd
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+
+import pandas as pd
+import yaml
+from hydra.experimental.callback import Callback
+
+
+def _job_dirs(sweep: Path) -> list[Path]:
+    jobs = [p for p in sweep.iterdir() if p.is_dir() and (p / ".hydra").is_dir()]
+    jobs += [p for p in sweep.iterdir() if p.is_dir() and p.name.startswith("job")
+             and p not in jobs]
+
+    def key(p: Path):
+        digits = "".join(c for c in p.name if c.isdigit())
+        return (int(digits) if digits else math.inf, p.name)
+
+    return sorted(set(jobs), key=key)
+
+
+def _overrides(job: Path) -> list[str]:
+    path = job / ".hydra" / "overrides.yaml"
+    if not path.exists():
+        return []
+    return [str(o) for o in (yaml.safe_load(path.read_text()) or [])]
+
+
+def _varying(all_overrides: dict[str, list[str]]) -> dict[str, str]:
+    """Per job, the overrides that differ between jobs (all of them if only one job)."""
+    sets = [set(v) for v in all_overrides.values()]
+    common = set.intersection(*sets) if len(sets) > 1 else set()
+    return {job: ", ".join(o for o in ov if o not in common) or ", ".join(ov)
+            for job, ov in all_overrides.items()}
+
+
+def collect(sweep: Path) -> tuple[pd.DataFrame, dict[str, str], list[str], list[str]]:
+    """(all rows, job -> label, skipped jobs with reasons, failed jobs)."""
+    frames, overrides, skipped, failed = [], {}, [], []
+    for job in _job_dirs(sweep):
+        csv = job / "metrics.csv"
+        if not csv.exists():
+            skipped.append(f"{job.name}: no metrics.csv (the job crashed before writing it)")
+            continue
+        try:
+            table = pd.read_csv(csv)
+        except (pd.errors.EmptyDataError, pd.errors.ParserError) as err:
+            skipped.append(f"{job.name}: unreadable metrics.csv ({err})")
+            continue
+        overrides[job.name] = _overrides(job)
+        table.insert(0, "job", job.name)
+        table.insert(1, "overrides", " ".join(overrides[job.name]))
+        if "status" in table and (table.status != "ok").any():
+            msg = table.loc[table.status != "ok", "message"].iloc[0]
+            t_stop = table.loc[table.status != "ok", "t_stop"].iloc[0]
+            failed.append(f"{job.name}: run failed at t = {t_stop:g} s ({msg})")
+        frames.append(table)
+    rows = pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+    labels = _varying(overrides) if overrides else {}
+    return rows, labels, skipped, failed
+
+
+def _fmt(x) -> str:
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        return str(x)
+    return "" if math.isnan(v) else f"{v:.4g}"
+
+
+def _cell(row) -> str:
+    text = _fmt(row.empirical)
+    bound = float(row.bound) if "bound" in row and pd.notna(row.bound) else math.nan
+    if math.isfinite(bound):
+        mark = {True: "✓", False: "✗"}.get(_truth(row.get("holds")), "?")
+        text += f" (≤ {_fmt(bound)} {mark})"
+    return text
+
+
+def _truth(v):
+    if isinstance(v, str):
+        return {"true": True, "false": False}.get(v.lower())
+    if v is None or (isinstance(v, float) and math.isnan(v)):
+        return None
+    return bool(v)
+
+
+def markdown(rows: pd.DataFrame, labels: dict[str, str], skipped: list[str],
+             failed: list[str], title: str) -> str:
+    """Readable rendering: jobs, then one table per observer (quantity x job)."""
+    out = [f"# {title}", ""]
+    out += ["| job | overrides |", "|---|---|"]
+    out += [f"| {job} | `{label}` |" for job, label in labels.items()]
+    out.append("")
+    if skipped or failed:
+        out += ["**Skipped / failed jobs:**", ""] + [f"- {s}" for s in skipped + failed] + [""]
+    if rows.empty:
+        out.append("No job wrote metrics.")
+        return "\n".join(out) + "\n"
+    jobs = list(labels)
+    rows = rows.assign(postprocess=rows["postprocess"].fillna(""))
+    for observer, group in rows.groupby("observer", sort=False):
+        out += [f"## observer `{observer}`", ""]
+        out.append("| postprocess | quantity | " + " | ".join(jobs) + " |")
+        out.append("|---|---|" + "---|" * len(jobs))
+        keys = list(dict.fromkeys(zip(group.postprocess, group.quantity, strict=True)))
+        for pp, quantity in keys:
+            sel = group[(group.postprocess == pp) & (group.quantity == quantity)]
+            cells = []
+            for job in jobs:
+                r = sel[sel.job == job]
+                cells.append(_cell(r.iloc[0]) if len(r) else "")
+            out.append(f"| {pp} | {quantity} | " + " | ".join(cells) + " |")
+        out.append("")
+    out.append("Cells: trailing-window value; where the paper gives a bound, "
+               "(≤ bound ✓/✗) says whether it holds.")
+    return "\n".join(out) + "\n"
+
+
+def comparison_figure(sweep: Path, labels: dict[str, str], exclude: set[str], path: Path,
+                      observer: str) -> list[str]:
+    """Fig. 3-style comparison from the recordings; returns the jobs left out, with why."""
+    from hgo.papers.sanfelice_praly.figures import fig3_compare
+    from hgo.recording import read_recording
+
+    runs, left_out = [], []
+    for job, label in labels.items():
+        if job in exclude:
+            left_out.append(f"{job}: run failed")
+            continue
+        rrd = sweep / job / "recording.rrd"
+        if not rrd.exists():
+            left_out.append(f"{job}: no recording.rrd")
+            continue
+        rec = read_recording(rrd)
+        if f"/observer/{observer}/xhat" not in rec:
+            left_out.append(f"{job}: no observer '{observer}' in the recording")
+            continue
+        runs.append((label, rec))
+    if runs:
+        fig3_compare(runs, path, observer=observer)
+    return left_out
+
+
+def aggregate(sweep: str | Path, out: str | Path | None = None,
+              observer: str = "sign_indefinite", figure: bool = True) -> dict[str, Path]:
+    """Write metrics_all.csv, metrics_all.md and compare.png; returns their paths."""
+    sweep = Path(sweep)
+    if not sweep.is_dir():
+        raise SystemExit(f"aggregate: {sweep} is not a directory")
+    out = Path(out) if out else sweep
+    out.mkdir(parents=True, exist_ok=True)
+    rows, labels, skipped, failed = collect(sweep)
+    paths = {"csv": out / "metrics_all.csv", "md": out / "metrics_all.md"}
+    rows.to_csv(paths["csv"], index=False)
+    if figure and labels:
+        failed_jobs = {f.split(":")[0] for f in failed}
+        left = comparison_figure(sweep, labels, failed_jobs, out / "compare.png", observer)
+        if (out / "compare.png").exists():
+            paths["png"] = out / "compare.png"
+        skipped = skipped + [f"{s} (not in compare.png)" for s in left
+                             if not any(s.split(":")[0] == f.split(":")[0] for f in failed)]
+    paths["md"].write_text(markdown(rows, labels, skipped, failed, f"Sweep {sweep}"))
+    for line in skipped + failed:
+        print(f"aggregate: {line}", file=sys.stderr)
+    print(f"aggregate: {len(labels)} job(s) -> " + ", ".join(str(p) for p in paths.values()))
+    rrds = sorted(str(p) for p in sweep.glob("*/recording.rrd"))
+    if rrds:
+        print("open together in the Rerun viewer:  rerun " + " ".join(rrds))
+    return paths
+
+
+class AggregateCallback(Callback):
+    """Hydra callback: aggregate the sweep directory at ``on_multirun_end``.
+
+    Hydra does not call it when a job fails: run ``experiments/aggregate.py <sweep>`` then.
+    """
+
+    def __init__(self, observer: str = "sign_indefinite") -> None:
+        self.observer = observer
+
+    def on_multirun_end(self, config, **kwargs) -> None:
+        try:
+            aggregate(config.hydra.sweep.dir, observer=self.observer)
+        except Exception as err:  # never turn a finished sweep into a failure
+            print(f"aggregate: failed ({err}); run experiments/aggregate.py "
+                  f"{config.hydra.sweep.dir}", file=sys.stderr)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("sweep", help="sweep directory (outputs/multirun/<run_name>/<date_time>)")
+    parser.add_argument("--out", help="output directory (default: the sweep directory)")
+    parser.add_argument("--observer", default="sign_indefinite",
+                        help="observer drawn in compare.png")
+    parser.add_argument("--no-figure", action="store_true", help="skip compare.png")
+    args = parser.parse_args(argv)
+    aggregate(args.sweep, args.out, args.observer, figure=not args.no_figure)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

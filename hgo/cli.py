@@ -1,0 +1,61 @@
+"""The ``hgo`` command: ``hgo run <overrides>``, ``hgo reproduce [paper ...]``, ``hgo list``.
+
+Imports are lazy: ``hgo --help`` loads neither Hydra nor numba.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+
+def _run(args: list[str]) -> int:
+    from hgo.app import main
+
+    sys.argv = ["hgo run", *args]
+    main()
+    return 0
+
+
+def _reproduce(args: list[str]) -> int:
+    from hgo.reproduce import main
+
+    return main(args)
+
+
+def _list(args: list[str]) -> int:
+    from hgo.catalog import main
+
+    return main(args)
+
+
+COMMANDS = {
+    "run": (_run, "run an experiment: hgo run experiment=sp_fig1 [-m for sweeps] "
+                  "(Hydra overrides; hgo run --help lists the groups)"),
+    "reproduce": (_reproduce, "run every figure and claim of the papers and write a report "
+                              "(hgo reproduce --help)"),
+    "list": (_list, "the experiment presets with their descriptions, and each group's options"),
+}
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    parser = argparse.ArgumentParser(
+        prog="hgo", description="hgo: high-gain observer experiments.",
+        epilog="\n".join(f"  {name:10s} {text}" for name, (_, text) in COMMANDS.items()),
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("command", choices=COMMANDS, metavar="command",
+                        help="one of: " + ", ".join(COMMANDS))
+    if not argv or argv[0] in ("-h", "--help"):
+        parser.print_help()
+        return 0
+    if argv[0] not in COMMANDS:
+        parser.print_usage(sys.stderr)
+        print(f"hgo: error: unknown command '{argv[0]}' (allowed: {', '.join(COMMANDS)})",
+              file=sys.stderr)
+        return 2
+    return COMMANDS[argv[0]][0](argv[1:])
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
