@@ -31,6 +31,7 @@ import numpy as np
 
 from hgo.figures import save_figure
 from hgo.papers.ahrens_khalil.postprocess import TRACKING
+from hgo.reproduce import PaperFigure
 
 OBS_COLOURS = {"switched": "tab:blue", "fixed_eps2": "tab:green", "fixed_eps1": "tab:red"}
 
@@ -371,3 +372,30 @@ class TradeoffReport(Callback):
 
 if __name__ == "__main__":
     raise SystemExit(main())
+
+
+# --- what ``hgo reproduce`` runs ------------------------------------------------------------
+
+
+def _stacked(which: str):
+    def combine(sweep: Path) -> None:
+        sweep_figure(sweep, which, late_window=1.0)
+
+    return combine
+
+
+_LOOPS = {"controller.observer": ("switched", "fixed_eps2", "fixed_eps1")}
+PAPER_FIGURES = [
+    PaperFigure("ak_fig1", {"fig1": "The velocity reference trajectory (ṙ, dotted) and x2 "
+                            "under the switched observer (solid). Bottom: switching behavior "
+                            "of the gain."}),
+    PaperFigure("ak_fig2", {"fig2": "Velocity tracking error (e2 = x2 - ṙ) for the "
+                            "switched-gain observer (top), the observer with ε2 = 0.01 "
+                            "(middle), and the observer with ε1 = 5·10⁻⁴ (bottom)."},
+                sweep=_LOOPS, combine=_stacked("fig2")),
+    PaperFigure("ak_fig3", {"fig3": "(Caption lost in the OCR; from the text:) zoom on the "
+                            "steady-state behavior of e2 = x2 - ṙ, showing that more of the "
+                            "measurement noise is attenuated when the observer switches to "
+                            "the slower gain."},
+                sweep=_LOOPS, combine=_stacked("fig3")),
+]

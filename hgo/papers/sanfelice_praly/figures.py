@@ -10,12 +10,14 @@ Fig. 3 (three values of p2, three runs) is drawn by ``experiments/aggregate.py``
 from __future__ import annotations
 
 from collections.abc import Sequence
+from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
 
 from hgo.figures import save_figure
 from hgo.recording import Series
+from hgo.reproduce import PaperFigure
 
 # the paper's colours: Fig. 1 blue/red, Fig. 3 blue/red/green, Figs. 4-5 green/black
 LAW_COLOURS = {"sign_indefinite": "tab:blue", "dead_zone": "tab:red"}
@@ -181,3 +183,30 @@ def fig5(result, path, zoom: float = 10.0) -> None:
         ax.grid(alpha=0.3)
     fig.suptitle("Sanfelice & Praly Fig. 5: collection (21) and its average")
     save_figure(fig, path)
+
+
+# --- what ``hgo reproduce`` runs ------------------------------------------------------------
+
+
+def _aggregate(sweep: Path) -> None:
+    from hgo.aggregate import aggregate
+
+    aggregate(sweep)
+
+
+_SOLUTION = ("Components of the solution to (18)-(19) corresponding to the zero solution of "
+             "the plant")
+PAPER_FIGURES = [
+    PaperFigure("sp_fig1", {"fig1": "Components of the solution to (18)-(19) corresponding to "
+                            "the zero equilibrium solution of the plant (blue) and with "
+                            "constant, sufficiently large gain (red)."}),
+    PaperFigure("sp_fig2", {"fig2": f"{_SOLUTION} (blue)."}),
+    PaperFigure("sp_fig3", {"compare": f"{_SOLUTION}, for parameters p1 = 4/3 and p2 = 3 "
+                            "(blue), 2 (red), 1.5 (green)."},
+                sweep={"observer.sign_indefinite.p2": (3, 2, 1.5)}, combine=_aggregate),
+    PaperFigure("sp_fig4", {"fig4": f"{_SOLUTION}, for parameters p1 = 4/3 and p2 = 1.5, "
+                            "without filter (green) and with filter (black)."}),
+    PaperFigure("sp_fig5", {"fig5": "Components of the solution to (18)-(19) shown in Figure 4 "
+                            "and to (18),(21) corresponding to the zero solution of the "
+                            "plant, for p1 = 4/3 and p2 = 1.5."}),
+]

@@ -1,0 +1,272 @@
+"""``hgo reproduce [paper ...] [--jobs N]``: every figure and claim of the papers, one report.
+
+Each paper package declares the runs that draw its figures (``PAPER_FIGURES`` in
+``hgo/papers/<paper>/figures.py``, a list of :class:`PaperFigure`) and its claims
+(``hgo/papers/<paper>/claims.py``, :mod:`hgo.claims`). This module
+
+1. runs every figure job (a preset, or each job of its sweep) and every paper's claims in
+   parallel processes;
+2. reuses a job's directory when it holds a finished run of the same composed config and the
+   same code (the key hashes both), and a paper's claim results for the same code;
+3. writes ``outputs/reproduce/<date_time>/report.md`` and a self-contained ``report.html``
+   (figures embedded): a summary table (paper x verdicts, wall time, machine, hgo version
+   and commit), then per paper its figures with the paper's captions, the claims ledger and
+   the bound tables.
+
+Job directories live under ``outputs/reproduce/runs/``, claim results under
+``outputs/reproduce/claims/``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import importlib
+import itertools
+import json
+import multiprocessing
+import os
+import sys
+import time
+import traceback
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field
+from datetime import datetime
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@dataclass(frozen=True)
+class PaperFigure:
+    """A preset whose run (or sweep) draws figures of a paper.
+
+    ``captions`` maps a figure file stem (``fig2`` for ``fig2.png``) to the paper's caption.
+    With ``sweep`` (key -> values) the preset runs once per combination, and ``combine``
+    (a function of the sweep directory) draws the figures of ``captions`` from the jobs;
+    without it the single run draws them.
+    """
+
+    preset: str
+    captions: dict[str, str]
+    overrides: tuple[str, ...] = ()
+    sweep: dict[str, tuple] = field(default_factory=dict)
+    combine: Callable[[Path], object] | None = None
+
+    def jobs(self) -> list[tuple[str, ...]]:
+        """The overrides of every job."""
+        base = (f"experiment={self.preset}", *self.overrides)
+        if not self.sweep:
+            return [base]
+        keys = list(self.sweep)
+        return [base + tuple(f"{k}={v}" for k, v in zip(keys, combo, strict=True))
+                for combo in itertools.product(*(self.sweep[k] for k in keys))]
+
+
+# ------------------------------------------------------------------------------ keys
+
+
+def code_fingerprint() -> str:
+    """Hash of hgo's sources and configs: a change to either invalidates every result."""
+    h = hashlib.sha256()
+    for path in sorted([*(ROOT / "hgo").rglob("*.py"), *(ROOT / "conf").rglob("*.yaml")]):
+        h.update(str(path.relative_to(ROOT)).encode())
+        h.update(path.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def job_key(overrides: tuple[str, ...], fingerprint: str) -> str:
+    """Hash of the composed config of ``overrides`` and the code fingerprint."""
+    from hgo.config import compose
+    from hgo.runner import job_config_yaml
+
+    text = job_config_yaml(compose(list(overrides)))
+    return hashlib.sha256((text + fingerprint).encode()).hexdigest()[:16]
+
+
+# -------------------------------------------------------------------------- workers
+
+
+def _silence_logs() -> None:
+    import logging
+
+    logging.getLogger("hgo").setLevel(logging.WARNING)
+
+
+def run_job(overrides: tuple[str, ...], job_dir: str, key: str) -> dict:
+    """One figure job into ``job_dir`` (Hydra's ``.hydra/`` files written too)."""
+    import yaml
+
+    from hgo.config import compose
+    from hgo.runner import job_config_yaml, run
+
+    _silence_logs()
+    out = Path(job_dir)
+    (out / ".hydra").mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    cfg = compose(list(overrides), out)
+    (out / ".hydra" / "config.yaml").write_text(job_config_yaml(cfg))
+    (out / ".hydra" / "overrides.yaml").write_text(yaml.safe_dump(list(overrides[1:])))
+    status = "ok"
+    try:
+        run(cfg, out)
+    except Exception as err:  # the report lists it; the other jobs go on
+        status = f"failed: {err}"
+    info = {"key": key, "overrides": list(overrides), "status": status,
+            "seconds": time.perf_counter() - t0}
+    (out / "reproduce.json").write_text(json.dumps(info, indent=1))
+    return info
+
+
+def run_claims(paper: str, path: str) -> dict:
+    """Every claim of ``paper``, measured; saved to ``path`` as JSON."""
+    from hgo.claims import all_claims
+
+    _silence_logs()
+    results = {}
+    for c in all_claims([paper]):
+        t0 = time.perf_counter()
+        try:
+            m = c.check()
+            entry = {"holds": bool(m.holds), "measured": m.describe(),
+                     "numbers": {k: (v if isinstance(v, str) else float(v))
+                                 for k, v in m.numbers.items()}}
+        except Exception as err:
+            entry = {"holds": None, "measured": f"error: {err!r}",
+                     "error": traceback.format_exc(limit=3)}
+        entry["seconds"] = time.perf_counter() - t0
+        results[c.id] = entry
+    Path(path).write_text(json.dumps(results, indent=1))
+    return results
+
+
+# ----------------------------------------------------------------------------- plan
+
+
+@dataclass
+class Job:
+    paper: str
+    figure: PaperFigure
+    overrides: tuple[str, ...]
+    dir: Path
+    key: str
+
+    def done(self) -> bool:
+        info = self.dir / "reproduce.json"
+        return info.exists() and json.loads(info.read_text()).get("key") == self.key
+
+
+def paper_figures(paper: str) -> list[PaperFigure]:
+    try:
+        module = importlib.import_module(f"hgo.papers.{paper}.figures")
+    except ModuleNotFoundError:
+        return []
+    return list(getattr(module, "PAPER_FIGURES", []))
+
+
+def plan_jobs(papers: list[str], runs_dir: Path, fingerprint: str) -> list[Job]:
+    jobs = []
+    for paper in papers:
+        for fig in paper_figures(paper):
+            all_overrides = fig.jobs()
+            keys = [job_key(o, fingerprint) for o in all_overrides]
+            if fig.sweep:  # one sweep directory per set of jobs, job<i> inside
+                sweep = runs_dir / fig.preset / hashlib.sha256("".join(keys).encode()
+                                                                ).hexdigest()[:16]
+                dirs = [sweep / f"job{i}" for i in range(len(keys))]
+            else:
+                dirs = [runs_dir / fig.preset / keys[0]]
+            jobs += [Job(paper, fig, o, d, k)
+                     for o, d, k in zip(all_overrides, dirs, keys, strict=True)]
+    return jobs
+
+
+# ---------------------------------------------------------------------------- main
+
+
+def _progress(k: int, n: int, text: str, t0: float) -> None:
+    print(f"[{k}/{n}] {text} ({time.perf_counter() - t0:.1f} s)", flush=True)
+
+
+def reproduce(papers: list[str], jobs: int, root: Path) -> Path:
+    """Run everything of ``papers`` with ``jobs`` processes; return the report directory."""
+    from hgo.claims import all_claims
+
+    t0 = time.perf_counter()
+    fingerprint = code_fingerprint()
+    plan = plan_jobs(papers, root / "runs", fingerprint)
+    claims_dir = root / "claims"
+    claims_dir.mkdir(parents=True, exist_ok=True)
+    claim_files = {p: claims_dir / f"{p}-{fingerprint}.json" for p in papers}
+    todo_jobs = [j for j in plan if not j.done()]
+    todo_claims = [p for p in papers if all_claims([p]) and not claim_files[p].exists()]
+    reused = len(plan) - len(todo_jobs) + sum(1 for p in papers if p not in todo_claims)
+    n = len(todo_jobs) + len(todo_claims)
+    print(f"reproduce: {', '.join(papers)}: {len(plan)} figure jobs, claims of "
+          f"{len(papers)} papers; {n} to run, {reused} reused from {root}", flush=True)
+    ctx = multiprocessing.get_context("fork")
+    with ProcessPoolExecutor(max_workers=max(1, jobs), mp_context=ctx) as pool:
+        # claims first: a paper's claims run sequentially in one process (shared runs)
+        futures = {pool.submit(run_claims, p, str(claim_files[p])): f"claims of {p}"
+                   for p in todo_claims}
+        futures.update({pool.submit(run_job, j.overrides, str(j.dir), j.key):
+                        " ".join(j.overrides) for j in todo_jobs})
+        for k, fut in enumerate(as_completed(futures), 1):
+            try:
+                result = fut.result()
+                status = result.get("status", "done") if "status" in result else "done"
+            except Exception as err:  # a crashed worker: the report says what is missing
+                status = f"crashed: {err!r}"
+            _progress(k, n, f"{futures[fut]} -> {status}", t0)
+    _combine(plan)
+    from hgo.report import write_report
+
+    out = root / datetime.now().strftime("%Y-%m-%d_%H-%M-%S")
+    write_report(out, papers, plan, claim_files, time.perf_counter() - t0)
+    return out
+
+
+def _combine(plan: list[Job]) -> None:
+    """Run the combiner of every sweep whose combined figures are missing or stale."""
+    seen = set()
+    for job in plan:
+        fig = job.figure
+        sweep = job.dir.parent
+        if not fig.sweep or fig.combine is None or sweep in seen:
+            continue
+        seen.add(sweep)
+        stamp = sweep / "combined.json"
+        keys = sorted(j.key for j in plan if j.dir.parent == sweep)
+        if stamp.exists() and json.loads(stamp.read_text()) == keys:
+            continue
+        try:
+            fig.combine(sweep)
+            stamp.write_text(json.dumps(keys))
+        except Exception as err:
+            print(f"reproduce: combining {sweep} failed: {err!r}", file=sys.stderr)
+
+
+def main(argv: list[str] | None = None) -> int:
+    from hgo.papers import paper_names
+
+    known = paper_names()
+    parser = argparse.ArgumentParser(prog="hgo reproduce", description=__doc__.split("\n")[0])
+    parser.add_argument("papers", nargs="*", metavar="paper",
+                        help=f"papers to reproduce (default: all): {', '.join(known)}")
+    parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1,
+                        help="parallel processes (default: the number of CPUs)")
+    parser.add_argument("--out", default="outputs/reproduce",
+                        help="root of runs, claim results and reports (default: %(default)s)")
+    args = parser.parse_args(argv)
+    unknown = [p for p in args.papers if p not in known]
+    if unknown:
+        print(f"error: paper: {', '.join(unknown)} unknown (allowed: {', '.join(known)})",
+              file=sys.stderr)
+        return 2
+    if args.jobs < 1:
+        print(f"error: --jobs: must be >= 1, got {args.jobs}", file=sys.stderr)
+        return 2
+    out = reproduce(args.papers or known, args.jobs, Path(args.out))
+    print(f"reproduce: wrote {out / 'report.md'} and {out / 'report.html'}")
+    return 0
