@@ -67,6 +67,14 @@ def _varying(all_overrides: dict[str, list[str]]) -> dict[str, str]:
             for job, ov in all_overrides.items()}
 
 
+def figure_label(label: str) -> str:
+    """``observer.sign_indefinite.p2=3, seed=1`` -> ``$p_{2} = 3$, seed = 1``."""
+    from hgo.figures import math_label
+
+    parts = [o.split("=", 1) for o in label.split(", ")]
+    return ", ".join(math_label(*kv) if len(kv) == 2 else kv[0] for kv in parts)
+
+
 def collect(sweep: Path) -> tuple[pd.DataFrame, dict[str, str], list[str], list[str]]:
     """(all rows, job -> label, skipped jobs with reasons, failed jobs)."""
     frames, overrides, skipped, failed = [], {}, [], []
@@ -169,7 +177,7 @@ def comparison_figure(sweep: Path, labels: dict[str, str], exclude: set[str], pa
         if f"/observer/{observer}/xhat" not in rec:
             left_out.append(f"{job}: no observer '{observer}' in the recording")
             continue
-        runs.append((label, rec))
+        runs.append((figure_label(label), rec))
     if runs:
         fig3_compare(runs, path, observer=observer)
     return left_out

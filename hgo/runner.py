@@ -196,14 +196,36 @@ def postprocess(cfg: DictConfig, exp: Experiment, traj: Trajectory) -> PostOutpu
     return total
 
 
+FIGURE_SETTINGS = ("format", "dpi")  # keys of the ``figures`` node that are not figures
+
+
+def figure_settings(cfg: DictConfig) -> tuple[str, float]:
+    """``figures.format`` and ``figures.dpi``, checked (before any integration)."""
+    from hgo.figures import FORMATS
+
+    node = cfg.get("figures") or {}
+    fmt, dpi = node.get("format", "png"), node.get("dpi", 110)
+    if fmt not in FORMATS:
+        raise ValueError(f"figures.format: '{fmt}' not in {list(FORMATS)}")
+    if not (isinstance(dpi, int | float) and 10 <= dpi <= 1200):
+        raise ValueError(f"figures.dpi must be a number in [10, 1200], got {dpi}")
+    return fmt, float(dpi)
+
+
 def _figures(cfg: DictConfig, result: RunResult) -> list[Path]:
-    """PNG figures of the ``figures`` mapping (name -> ``_target_`` taking the result)."""
+    """Figures of the ``figures`` mapping (name -> ``_target_`` taking the result and a
+    path), written as ``<name>.<figures.format>`` at ``figures.dpi``."""
+    import matplotlib.pyplot as plt
+
+    fmt, dpi = figure_settings(cfg)
     paths = []
     for name, node in (cfg.get("figures") or {}).items():
-        if node is None:  # a preset drops an inherited figure with `figures.<name>: null`
+        # a preset drops an inherited figure with `figures.<name>: null`
+        if node is None or name in FIGURE_SETTINGS:
             continue
-        path = result.out_dir / f"{name}.png"
-        instantiate(node, _partial_=True)(result, path)
+        path = result.out_dir / f"{name}.{fmt}"
+        with plt.rc_context({"savefig.dpi": dpi}):
+            instantiate(node, _partial_=True)(result, path)
         paths.append(path)
     return paths
 
@@ -236,6 +258,7 @@ def run(cfg: DictConfig, out_dir: str | Path) -> RunResult:
     """Build, simulate and write ``recording.rrd``, ``metrics.csv`` and figures."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
+    figure_settings(cfg)
     mem = simulate_config(cfg)
     exp, traj, table = mem.experiment, mem.trajectory, mem.metrics
     series = signals(exp.system, traj) + mem.post.series

@@ -29,10 +29,13 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from hgo.figures import save_figure
+from hgo.figures import panel_letters, save_figure
 from hgo.papers.ahrens_khalil.postprocess import TRACKING
 from hgo.reproduce import PaperFigure
 
+LOOP_LABELS = {"switched": "the switched-gain observer",
+               "fixed_eps2": r"the fixed $\varepsilon_2 = 0.01$ observer",
+               "fixed_eps1": r"the fixed $\varepsilon_1 = 5\cdot10^{-4}$ observer"}
 OBS_COLOURS = {"switched": "tab:blue", "fixed_eps2": "tab:green", "fixed_eps1": "tab:red"}
 
 
@@ -53,8 +56,9 @@ def _loop_observer(result):
 def _label(obs) -> str:
     p = obs.p
     if int(p[1]) == 2:
-        return f"{obs.name}: eps1 = {p[8]:g} -> eps2 = {p[9]:g} after T_d = {p[3]:g} s"
-    return f"{obs.name}: fixed eps = {p[8]:g}"
+        return (rf"{obs.name}: $\varepsilon_1 = {p[8]:g} \to \varepsilon_2 = {p[9]:g}$ "
+                f"after $T_d = {p[3]:g}$ s")
+    return rf"{obs.name}: fixed $\varepsilon = {p[8]:g}$"
 
 
 def fig1(result, path) -> None:
@@ -66,24 +70,24 @@ def fig1(result, path) -> None:
     eps = result.trajectory.d[:, da + obs.disc_names.index("eps")]
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 6), sharex=True,
                                    gridspec_kw={"height_ratios": [2, 1]})
-    ax1.plot(t, tr[:, 0], "k:", lw=2, label="reference r'")
-    ax1.plot(t, tr[:, 1], "tab:blue", lw=1, label="x2")
+    ax1.plot(t, tr[:, 0], "k:", lw=2, label=r"reference $\dot{r}$")
+    ax1.plot(t, tr[:, 1], "tab:blue", lw=1, label="$x_2$")
     ax1.set_ylabel("velocity (rad/s)")
     ax1.legend(loc="lower right")
     ax1.set_title(f"Ahrens & Khalil Fig. 1 - {_label(obs)}")
     ax2.step(t, eps, "tab:blue", where="post")
     ax2.set_yscale("log")
-    ax2.set_ylabel("eps")
-    ax2.set_xlabel("t (s)")
+    ax2.set_ylabel(r"$\varepsilon$ (s)")
+    ax2.set_xlabel("$t$ (s)")
+    panel_letters((ax1, ax2))
     save_figure(fig, path)
 
 
 def _e2_axes(ax, t, e2, label, colour, window=None) -> None:
     sel = slice(None) if window is None else t >= window
     ax.plot(t[sel], e2[sel], color=colour, lw=0.8)
-    ax.set_ylabel("e2 (rad/s)")
-    ax.set_title(label, fontsize=9)
-    ax.grid(alpha=0.3)
+    ax.set_ylabel("$e_2$ (rad/s)")
+    ax.set_title(label)
 
 
 def fig2(result, path) -> None:
@@ -91,8 +95,8 @@ def fig2(result, path) -> None:
     obs, _ = _loop_observer(result)
     t = result.trajectory.t
     _e2_axes(plt.subplots(figsize=(8, 3))[1], t, _tracking(result)[:, 2],
-             f"Ahrens & Khalil Fig. 2 - e2, {_label(obs)}", OBS_COLOURS.get(obs.name, "k"))
-    plt.gca().set_xlabel("t (s)")
+             f"Ahrens & Khalil Fig. 2 - $e_2$, {_label(obs)}", OBS_COLOURS.get(obs.name, "k"))
+    plt.gca().set_xlabel("$t$ (s)")
     save_figure(plt.gcf(), path)
 
 
@@ -107,9 +111,9 @@ def fig3(result, path) -> None:
     obs, _ = _loop_observer(result)
     t = result.trajectory.t
     _e2_axes(plt.subplots(figsize=(8, 3))[1], t, _tracking(result)[:, 2],
-             f"Ahrens & Khalil Fig. 3 - steady-state e2, {_label(obs)}",
+             f"Ahrens & Khalil Fig. 3 - steady-state $e_2$, {_label(obs)}",
              OBS_COLOURS.get(obs.name, "k"), window=_late_start(result))
-    plt.gca().set_xlabel("t (s)")
+    plt.gca().set_xlabel("$t$ (s)")
     save_figure(plt.gcf(), path)
 
 
@@ -163,10 +167,12 @@ def sweep_figure(sweep: str | Path, which: str = "fig2", late_window: float = 1.
                              sharey=True, squeeze=False)
     for ax, (name, t, e2) in zip(axes[:, 0], panels, strict=True):
         window = t[-1] - late_window if which == "fig3" else None
-        _e2_axes(ax, t, e2, f"closed loop through {name}", OBS_COLOURS.get(name, "k"), window)
-    axes[-1, 0].set_xlabel("t (s)")
-    title = {"fig2": "Ahrens & Khalil Fig. 2: e2 = x2 - r'",
-             "fig3": "Ahrens & Khalil Fig. 3: steady-state e2"}.get(which, which)
+        _e2_axes(ax, t, e2, f"closed loop through {LOOP_LABELS.get(name, name)}",
+                 OBS_COLOURS.get(name, "k"), window)
+    axes[-1, 0].set_xlabel("$t$ (s)")
+    panel_letters(axes[:, 0])
+    title = {"fig2": r"Ahrens & Khalil Fig. 2: $e_2 = x_2 - \dot{r}$",
+             "fig3": "Ahrens & Khalil Fig. 3: steady-state $e_2$"}.get(which, which)
     fig.suptitle(title)
     path = sweep / f"{which}.png"
     save_figure(fig, path)
@@ -211,7 +217,7 @@ def tradeoff_figure(path, eps: np.ndarray, mu: np.ndarray, bound: np.ndarray, r:
     grid = np.geomspace(eps.min(), eps.max(), 200)
     for colour, m in zip(colours, mus, strict=True):
         sel = mu == m
-        ax1.loglog(eps[sel], bound[sel], "o", color=colour, label=f"mu = {m:g}")
+        ax1.loglog(eps[sel], bound[sel], "o", color=colour, label=rf"$\mu = {m:g}$")
         if m in fits:
             c1, c2 = fits[m]
             ax1.loglog(grid, ultimate_bound(grid, m, c1, c2, r), "-", color=colour, lw=1)
@@ -221,27 +227,31 @@ def tradeoff_figure(path, eps: np.ndarray, mu: np.ndarray, bound: np.ndarray, r:
         for colour, m in zip(colours, mus, strict=True):
             ax1.loglog(grid, ultimate_bound(grid, m, *global_fit, r), "--", color=colour,
                        lw=0.6, alpha=0.6)
-    ax1.set_xlabel("eps")
-    ax1.set_ylabel("max ||x - x^|| over the late window")
-    ax1.set_title("measured ultimate bound; lines: F_r(eps, mu) = eps c1 + mu c2/eps^(r-1)",
+    ax1.set_xlabel(r"$\varepsilon$ (s)")
+    ax1.set_ylabel(r"max $\|x - \hat{x}\|$ over the late window")
+    ax1.set_title(r"measured ultimate bound; lines: $F_r = \varepsilon c_1 + "
+                  r"\mu c_2/\varepsilon^{r-1}$",
                   fontsize=9)
     ax1.legend(fontsize=8)
     ms = np.array(sorted(eps_star))
     if ms.size:
-        ax2.loglog(ms, [eps_star[m] for m in ms], "ko", label="eps* (fit of (25) per mu)")
+        ax2.loglog(ms, [eps_star[m] for m in ms], "ko",
+                   label=r"$\varepsilon^*$ (fit of (25) per $\mu$)")
     if eps_star_grid:
         mg = np.array(sorted(eps_star_grid))
         ax2.loglog(mg, [eps_star_grid[m] for m in mg], "s", mfc="none", color="tab:blue",
-                   label="eps* (measured minimum on the eps grid)")
+                   label=r"$\varepsilon^*$ (measured minimum on the $\varepsilon$ grid)")
     if power is not None and ms.size:
         q, se, pref = power
-        ax2.loglog(ms, pref * ms ** q, "k-", label=f"fit: eps* ~ mu^{q:.3f} (+- {se:.3f})")
+        ax2.loglog(ms, pref * ms ** q, "k-",
+                   label=rf"fit: $\varepsilon^* \propto \mu^{{{q:.3f}}}$ ($\pm$ {se:.3f})")
         ax2.loglog(ms, pref * ms[0] ** q * (ms / ms[0]) ** (1 / r), "r--",
-                   label=f"theory: mu^(1/r) = mu^{1 / r:g}")
-    ax2.set_xlabel("mu (noise amplitude)")
-    ax2.set_ylabel("eps*")
+                   label=rf"theory: $\mu^{{1/r}} = \mu^{{{1 / r:g}}}$")
+    ax2.set_xlabel(r"noise amplitude $\mu$ (rad)")
+    ax2.set_ylabel(r"$\varepsilon^*$ (s)")
     ax2.legend(fontsize=8)
-    ax2.set_title("optimal eps vs noise amplitude", fontsize=9)
+    ax2.set_title(r"optimal $\varepsilon$ vs noise amplitude")
+    panel_letters((ax1, ax2))
     save_figure(fig, path)
 
 

@@ -15,7 +15,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from hgo.figures import save_figure
+from hgo.figures import hat, legend_outside, panel_letters, save_figure
 from hgo.recording import Series
 from hgo.reproduce import PaperFigure
 
@@ -35,9 +35,9 @@ def _label(obs) -> str:
     par = law6_parameters(obs)
     if obs.f.__module__ == "hgo.observers.triangular":
         law = {0: "constant gain", 1: "law (6)", 2: "dead-zone law (4)"}[int(obs.p[1])]
-        return f"{obs.name}: {law}, p2 = {obs.p[3]:g}"
+        return f"{obs.name}: {law}, $p_2 = {obs.p[3]:g}$"
     if par is not None and par["kind"] == "collection":
-        return f"{obs.name}: average of {par['N']} copies (21), p2 = {par['p2']:g}"
+        return f"{obs.name}: average of {par['N']} copies (21), $p_2 = {par['p2']:g}$"
     return obs.name
 
 
@@ -48,28 +48,27 @@ def _estimates_and_gain(result, path, title: str) -> None:
     system = result.experiment.system
     x = s["/plant/x"]
     n = x.values.shape[1]
-    fig, axes = plt.subplots(n + 1, 1, figsize=(8, 2.6 * (n + 1)), sharex=True)
+    fig, axes = plt.subplots(n + 1, 1, figsize=(10, 2.6 * (n + 1)), sharex=True)
     for k in range(n):
         ax = axes[k]
-        ax.plot(t, x.values[:, k], "k--", lw=1, label=f"plant {x.names[k]}")
+        ax.plot(t, x.values[:, k], "k--", lw=1, label=f"plant ${x.names[k][0]}_{k + 1}$")
         for obs in system.observers:
             est = s[f"/observer/{obs.name}/xhat"]
             if k < est.values.shape[1]:
                 ax.plot(t, est.values[:, k], color=LAW_COLOURS.get(obs.name), lw=1.2,
                         label=_label(obs))
-        ax.set_ylabel(f"x^{k + 1}")
-        ax.legend(fontsize=8, loc="best")
-        ax.grid(alpha=0.3)
+        ax.set_ylabel(f"{hat(f'x{k + 1}')} (–)")
+        legend_outside(ax)
     ax = axes[n]
     for obs in system.observers:
         r = s.get(f"/observer/{obs.name}/r")
         if r is not None:
             ax.plot(t, r.values[:, 0], color=LAW_COLOURS.get(obs.name), label=_label(obs))
-    ax.set_ylabel("r")
-    ax.set_xlabel("t [s]")
-    ax.legend(fontsize=8, loc="best")
-    ax.grid(alpha=0.3)
-    axes[0].set_title(title)
+    ax.set_ylabel("gain $r$ (–)")
+    ax.set_xlabel("$t$ (s)")
+    legend_outside(ax)
+    panel_letters(axes)
+    fig.suptitle(title)
     save_figure(fig, path)
 
 
@@ -95,7 +94,7 @@ def fig3_compare(runs: Sequence[tuple[str, dict[str, np.ndarray]]], path,
                  observer: str = "sign_indefinite") -> None:
     """Fig. 3: x^1, x^2, r of several runs (label, recording as from ``read_recording``)."""
     colours = ["tab:blue", "tab:red", "tab:green", "tab:orange", "tab:purple"]
-    fig, axes = plt.subplots(3, 1, figsize=(8, 8), sharex=True)
+    fig, axes = plt.subplots(3, 1, figsize=(10, 8), sharex=True)
     for k, (label, rec) in enumerate(runs):
         t = rec["sim_time"]
         xh = rec[f"/observer/{observer}/xhat"]
@@ -104,12 +103,13 @@ def fig3_compare(runs: Sequence[tuple[str, dict[str, np.ndarray]]], path,
         axes[0].plot(t, xh[:, 0], color=c, lw=1, label=label)
         axes[1].plot(t, xh[:, 1], color=c, lw=1, label=label)
         axes[2].plot(t, r[:, 0], color=c, lw=1, label=label)
-    for ax, name in zip(axes, ["x^1", "x^2", "r"], strict=True):
-        ax.set_ylabel(name)
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8, loc="upper right")
-    axes[0].set_title("Sanfelice & Praly Fig. 3: law (6), p1 = 4/3, nu1 = 3, zero plant solution")
-    axes[2].set_xlabel("t [s]")
+    for ax, name in zip(axes, [hat("x1"), hat("x2"), "gain $r$"], strict=True):
+        ax.set_ylabel(f"{name} (–)")
+        legend_outside(ax)
+    panel_letters(axes)
+    fig.suptitle(r"Sanfelice & Praly Fig. 3: law (6), $p_1 = 4/3$, $\nu_1 = 3$, "
+                 "zero plant solution")
+    axes[2].set_xlabel("$t$ (s)")
     save_figure(fig, path)
 
 
@@ -120,24 +120,24 @@ def fig4(result, path) -> None:
     obs = result.experiment.system.observers[0]
     xh = s[f"/observer/{obs.name}/xhat"].values
     xf = s[f"/observer/{obs.name}/xhat_f"].values
-    fig = plt.figure(figsize=(11, 7))
+    fig = plt.figure(figsize=(13, 7.5))
     ax = fig.add_subplot(1, 2, 1)
-    ax.plot(xh[:, 0], xh[:, 1], color="tab:green", lw=0.8, label=f"x^ ({_label(obs)})")
-    ax.plot(xf[:, 0], xf[:, 1], color="k", lw=0.8, label="x^_f (notch filter T(s))")
-    ax.set_xlabel("x^1")
-    ax.set_ylabel("x^2")
-    ax.set_title("(a) components of x^")
-    ax.legend(fontsize=8)
-    ax.grid(alpha=0.3)
+    ax.plot(xh[:, 0], xh[:, 1], color="tab:green", lw=0.8, label=rf"$\hat{{x}}$ ({_label(obs)})")
+    ax.plot(xf[:, 0], xf[:, 1], color="k", lw=0.8, label=r"$\hat{x}_f$ (notch filter $T(s)$)")
+    ax.set_xlabel(f"{hat('x1')} (–)")
+    ax.set_ylabel(f"{hat('x2')} (–)")
+    ax.set_title(r"phase plane of $\hat{x}$")
+    legend_outside(ax, below=True)
+    panels = [ax]
     for k, pos in ((0, 2), (1, 4)):
         ax = fig.add_subplot(2, 2, pos)
-        ax.plot(t, xh[:, k], color="tab:green", lw=1, label=f"x^{k + 1}")
-        ax.plot(t, xf[:, k], color="k", lw=1, label=f"x^{k + 1}f (notch)")
-        ax.set_ylabel(f"x^{k + 1}")
-        ax.set_title(f"({'bc'[k]}) x^{k + 1} and x^{k + 1}f")
-        ax.legend(fontsize=8, loc="upper right")
-        ax.grid(alpha=0.3)
-    ax.set_xlabel("t [s]")
+        ax.plot(t, xh[:, k], color="tab:green", lw=1, label=hat(f"x{k + 1}"))
+        ax.plot(t, xf[:, k], color="k", lw=1, label=rf"$\hat{{x}}_{{{k + 1}f}}$ (notch)")
+        ax.set_ylabel(f"{hat(f'x{k + 1}')} (–)")
+        legend_outside(ax)
+        panels.append(ax)
+    ax.set_xlabel("$t$ (s)")
+    panel_letters(panels)
     fig.suptitle("Sanfelice & Praly Fig. 4: notch filter on the estimates")
     save_figure(fig, path)
 
@@ -156,31 +156,34 @@ def fig5(result, path, zoom: float = 10.0) -> None:
     N = collection_params(coll)["N"]
     zm = t >= t[-1] - zoom
     avg = s[f"/observer/{coll.name}/xhat"].values
-    fig, axes = plt.subplots(2, 2, figsize=(12, 7))
+    fig, axes = plt.subplots(2, 2, figsize=(15, 7.5))
     for k, ax in enumerate(axes[0]):
         for i in range(N):
             v = s[f"/observer/{coll.name}/copy{i + 1}/xhat"].values[:, k]
             ax.plot(t[zm], v[zm], color=COPY_COLOURS[i % len(COPY_COLOURS)], lw=1,
-                    label=f"copy {i + 1}: x^_{{{i + 1},{k + 1}}}")
-        ax.plot(t[zm], avg[zm, k], "k", lw=2, label=f"<x^{k + 1}> (average)")
-        ax.set_title(f"({'ab'[k]}) {'outputs y^_i' if k == 0 else 'components x^_i,2'}"
-                     f", last {zoom:g} s")
-        ax.set_xlabel("t [s]")
-        ax.legend(fontsize=7, loc="upper right")
-        ax.grid(alpha=0.3)
+                    label=rf"copy {i + 1}: $\hat{{x}}_{{{i + 1},{k + 1}}}$")
+        ax.plot(t[zm], avg[zm, k], "k", lw=2,
+                label=rf"$\langle\hat{{x}}_{k + 1}\rangle$ (average)")
+        what = r"outputs $\hat{y}_i$" if k == 0 else r"components $\hat{x}_{i,2}$"
+        ax.set_title(f"{what}, last {zoom:g} s")
+        ax.set_ylabel(f"{hat(f'x{k + 1}')} (–)")
+        legend_outside(ax)
     for k, ax in enumerate(axes[1]):
         for obs in single:
             ax.plot(t, s[f"/observer/{obs.name}/xhat"].values[:, k], color="tab:green", lw=1,
-                    label=f"x^{k + 1} ({_label(obs)})")
+                    label=f"{hat(f'x{k + 1}')} ({_label(obs)})")
             f = s.get(f"/observer/{obs.name}/xhat_f")
             if f is not None:
                 ax.plot(t, f.values[:, k], color="tab:gray", lw=1,
-                        label=f"x^{k + 1}f (notch on {obs.name})")
-        ax.plot(t, avg[:, k], "k", lw=1.2, label=f"<x^{k + 1}> ({N} copies)")
-        ax.set_title(f"(c) x^{k + 1}: single observer vs average")
-        ax.set_xlabel("t [s]")
-        ax.legend(fontsize=7, loc="upper right")
-        ax.grid(alpha=0.3)
+                        label=rf"$\hat{{x}}_{{{k + 1}f}}$ (notch on {obs.name})")
+        ax.plot(t, avg[:, k], "k", lw=1.2,
+                label=rf"$\langle\hat{{x}}_{k + 1}\rangle$ ({N} copies)")
+        ax.set_title(f"{hat(f'x{k + 1}')}: single observer vs average")
+        ax.set_ylabel(f"{hat(f'x{k + 1}')} (–)")
+        legend_outside(ax)
+    for ax in axes.ravel():
+        ax.set_xlabel("$t$ (s)")
+    panel_letters(axes.ravel())
     fig.suptitle("Sanfelice & Praly Fig. 5: collection (21) and its average")
     save_figure(fig, path)
 
