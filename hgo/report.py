@@ -166,6 +166,19 @@ def summary_rows(secs: list[Section]) -> list[dict]:
     return rows
 
 
+def registry_table() -> str:
+    """Markdown: per paper, its claims by declared verdict (README's "What reproduces")."""
+    from hgo.papers import paper_names
+
+    rows = []
+    for paper in paper_names():
+        claims = all_claims([paper])
+        if claims:
+            rows.append({"paper": paper_title(paper), "claims": len(claims),
+                         **{v: sum(c.verdict == v for c in claims) for v in VERDICTS}})
+    return _md_table(rows)
+
+
 # ------------------------------------------------------------------------------ writers
 
 

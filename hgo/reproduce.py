@@ -258,7 +258,15 @@ def main(argv: list[str] | None = None) -> int:
                         help="parallel processes (default: the number of CPUs)")
     parser.add_argument("--out", default="outputs/reproduce",
                         help="root of runs, claim results and reports (default: %(default)s)")
+    parser.add_argument("--table", action="store_true",
+                        help="print README's 'What reproduces' table (from the claims "
+                             "registry, no runs) and exit")
     args = parser.parse_args(argv)
+    if args.table:
+        from hgo.report import registry_table
+
+        print(registry_table(), end="")
+        return 0
     unknown = [p for p in args.papers if p not in known]
     if unknown:
         print(f"error: paper: {', '.join(unknown)} unknown (allowed: {', '.join(known)})",

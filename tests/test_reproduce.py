@@ -84,3 +84,11 @@ def test_report_in_a_headless_browser(report, tmp_path):
     subprocess.run([*args, f"--screenshot={shot}", "--window-size=1280,4000",
                     (out / "report.html").as_uri()], capture_output=True, timeout=60)
     assert shot.stat().st_size > 10_000
+
+
+def test_readme_what_reproduces_table_is_the_registry():
+    from hgo.report import registry_table
+
+    readme = (ROOT / "README.md").read_text()
+    start, end = "<!-- what-reproduces:start -->\n", "<!-- what-reproduces:end -->"
+    assert readme[readme.index(start) + len(start):readme.index(end)] == registry_table()
