@@ -29,12 +29,25 @@ def _list(args: list[str]) -> int:
     return main(args)
 
 
+def _runs_command(name: str):
+    def command(args: list[str]) -> int:
+        from hgo import runs_cli
+
+        return getattr(runs_cli, name)(args)
+
+    return command
+
+
 COMMANDS = {
     "run": (_run, "run an experiment: hgo run experiment=sp_fig1 [-m for sweeps] "
                   "(Hydra overrides; hgo run --help lists the groups)"),
     "reproduce": (_reproduce, "run every figure and claim of the papers and write a report "
                               "(hgo reproduce --help)"),
     "list": (_list, "the experiment presets with their descriptions, and each group's options"),
+    "runs": (_runs_command("runs"), "every run under outputs/ as one table (--where, --metrics, "
+                                    "--compare A B)"),
+    "show": (_runs_command("show"), "one run: status, provenance, config, metrics"),
+    "export": (_runs_command("export"), "a recording as CSV or Parquet (--format csv|parquet)"),
 }
 
 
@@ -54,7 +67,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"hgo: error: unknown command '{argv[0]}' (allowed: {', '.join(COMMANDS)})",
               file=sys.stderr)
         return 2
-    return COMMANDS[argv[0]][0](argv[1:])
+    try:
+        return COMMANDS[argv[0]][0](argv[1:])
+    except BrokenPipeError:  # `hgo runs | head`: the reader left, nothing to report
+        sys.stderr.close()
+        return 0
 
 
 if __name__ == "__main__":

@@ -37,6 +37,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import rerun as rr
 import rerun.blueprint as rrb
 
@@ -67,6 +68,7 @@ PALETTE: tuple[tuple[int, int, int], ...] = (
 
 _RECORDING_ID_RE = re.compile(r"[A-Za-z0-9_-]+")
 _SCALARS_SUFFIX = ":Scalars:scalars"
+_NAMES_SUFFIX = ":SeriesLines:names"
 
 
 @dataclass(frozen=True)
@@ -380,3 +382,26 @@ def read_recording(path: str | Path) -> dict[str, np.ndarray]:
             entity = name[: -len(_SCALARS_SUFFIX)]
             out[entity] = _column_values(table.column(name), table.num_rows)
     return out
+
+
+def read_dataframe(path: str | Path) -> pd.DataFrame:
+    """The scalar series of a recording as a DataFrame indexed by ``sim_time`` (seconds),
+    one column per series named ``<entity>/<series name>`` as logged, e.g.
+    ``/plant/x/x1``, ``/observer/sign_indefinite/xhat/x1_hat``, ``/error/…/e_x1``."""
+    from rerun.chunk import RrdReader
+
+    data = read_recording(path)
+    store = RrdReader(Path(path)).stream().collect()
+    static = store.reader(index=None).to_arrow_table().to_pylist()
+    names = {}
+    for column, value in (static[0] if static else {}).items():
+        if column.endswith(_NAMES_SUFFIX) and value is not None:
+            names[column[: -len(_NAMES_SUFFIX)]] = list(value)
+    columns = {}
+    for entity, values in data.items():
+        if entity == TIMELINE:
+            continue
+        labels = names.get(entity) or [str(i) for i in range(values.shape[1])]
+        for j, label in enumerate(labels[: values.shape[1]]):
+            columns[f"{entity}/{label}"] = values[:, j]
+    return pd.DataFrame(columns, index=pd.Index(data[TIMELINE], name=TIMELINE))

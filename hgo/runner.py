@@ -15,7 +15,7 @@ import re
 import time
 import uuid
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import pandas as pd
@@ -24,6 +24,8 @@ from hydra.utils import get_method, instantiate
 from omegaconf import DictConfig, OmegaConf
 
 from hgo.components import Controller, Observer, Plant
+from hgo.console import compact_table
+from hgo.engine.jit import compile_timer
 from hgo.engine.simulate import SolverSettings, Trajectory, simulate
 from hgo.engine.system import System
 from hgo.metrics import metrics_table
@@ -53,6 +55,8 @@ class RunResult:
     metrics: pd.DataFrame
     out_dir: Path
     series: list[Series]
+    # seconds: compile (numba, new kernels only), simulate (without compiling), write
+    timings: dict[str, float] = field(default_factory=dict)
 
 
 def _has_nested_target(value) -> bool:
@@ -238,20 +242,23 @@ class MemoryRun:
     trajectory: Trajectory
     post: PostOutput
     metrics: pd.DataFrame
-    simulate_seconds: float
+    simulate_seconds: float  # without compiling
+    compile_seconds: float  # numba compiling a kernel not in the cache (0 when cached)
 
 
 def simulate_config(cfg: DictConfig) -> MemoryRun:
     """Build, simulate, post-process and tabulate the metrics of a composed config."""
     exp = build(cfg)
     t0 = time.perf_counter()
-    traj = run_experiment(exp)
-    t_sim = time.perf_counter() - t0
+    with compile_timer() as compiling:
+        traj = run_experiment(exp)
+    t_compile = compiling.duration if compiling.done else 0.0
+    t_sim = time.perf_counter() - t0 - t_compile
     post = postprocess(cfg, exp, traj) if traj.ok else PostOutput()
     table = metrics_table(exp.system, traj.acc, traj.status, traj.t_stop, post.bounds,
                           post.rows)
     table.insert(0, "run", cfg.get("run_name", "run"))
-    return MemoryRun(exp, traj, post, table, t_sim)
+    return MemoryRun(exp, traj, post, table, t_sim, t_compile)
 
 
 def run(cfg: DictConfig, out_dir: str | Path) -> RunResult:
@@ -269,12 +276,14 @@ def run(cfg: DictConfig, out_dir: str | Path) -> RunResult:
                     recording_id=recording_id(out_dir), blueprint=blueprint(exp.system, series),
                     text={"/run/status": status_text,
                           "/run/config": job_config_yaml(cfg)})
-    log.info("simulated in %.3f s; recording of %d samples x %d columns written in %.3f s",
-             mem.simulate_seconds, len(traj.t), sum(len(s.names) for s in series),
-             time.perf_counter() - t1)
+    t_write = time.perf_counter() - t1
+    log.info("simulated in %.3f s (compiling %.3f s); recording of %d samples x %d columns "
+             "written in %.3f s", mem.simulate_seconds, mem.compile_seconds, len(traj.t),
+             sum(len(s.names) for s in series), t_write)
     table.to_csv(out_dir / "metrics.csv", index=False)
-    log.info("metrics:\n%s", table.to_string(index=False))
-    result = RunResult(exp, traj, table, out_dir, series)
+    log.info("metrics (all columns in metrics.csv):\n%s", compact_table(table))
+    result = RunResult(exp, traj, table, out_dir, series, {
+        "compile": mem.compile_seconds, "simulate": mem.simulate_seconds, "write": t_write})
     if not traj.ok:
         raise SimulationFailed(f"run stopped at t = {traj.t_stop:g} s: {traj.message} "
                                f"(outputs up to then are in {out_dir})")

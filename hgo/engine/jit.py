@@ -84,3 +84,11 @@ def borrow_function(compiled: bool):
     of an ensemble fight over the parent arrays' counters).
     """
     return _borrowed if compiled else _py_borrowed
+
+
+def compile_timer():
+    """Context manager measuring the time numba spends compiling inside it: ``with
+    compile_timer() as t: ...``, then ``t.duration`` (seconds) if ``t.done``."""
+    from numba.core.event import TimingListener, install_listener
+
+    return install_listener("numba:compile", TimingListener())

@@ -1,0 +1,60 @@
+"""What a run prints: a metrics table that fits 100 columns, one line per sweep job.
+
+The full table stays in ``metrics.csv``; the console shows observer, quantity, value,
+bound, ratio and whether the bound holds (✓ / ✗ / vacuous / empty when there is no bound).
+"""
+
+from __future__ import annotations
+
+import math
+
+import pandas as pd
+
+WIDTH = 100
+# a bound larger than the measured value by more than this says nothing about it
+VACUOUS_FACTOR = 1e6
+
+
+def verdict(value: float, bound: float, vacuous_factor: float = VACUOUS_FACTOR) -> str:
+    """✓ / ✗ / ``vacuous`` (bound > factor x |value|, value not 0) / ``""`` (no bound)."""
+    if not (isinstance(bound, int | float) and math.isfinite(bound)):
+        return ""
+    if not math.isfinite(value) or value > bound:
+        return "✗"
+    return "vacuous" if 0 < vacuous_factor * abs(value) < bound else "✓"
+
+
+def _num(v: float) -> str:
+    if not isinstance(v, int | float) or math.isnan(v):
+        return ""
+    if float(v).is_integer() and abs(v) < 1e9:
+        return str(int(v))
+    return f"{v:.4g}"
+
+
+def _clip(text: str, n: int) -> str:
+    return text if len(text) <= n else text[: n - 1] + "…"
+
+
+def compact_table(table: pd.DataFrame, width: int = WIDTH) -> str:
+    """The metrics of a run in at most ``width`` columns, duplicates dropped."""
+    rows = table.drop_duplicates(subset=["observer", "quantity"])
+    obs_w = min(16, max(8, *(len(str(o)) for o in rows.observer)))
+    q_w = width - obs_w - 4 * 11 - 9
+    head = f"{'observer':{obs_w}} {'quantity':{q_w}} {'value':>10} {'bound':>10} " \
+           f"{'ratio':>10} {'holds':>8}"
+    lines = [head, "-" * len(head)]
+    for r in rows.itertuples():
+        bound = float(r.bound) if pd.notna(r.bound) else math.nan
+        lines.append(f"{_clip(str(r.observer), obs_w):{obs_w}} {_clip(str(r.quantity), q_w):{q_w}}"
+                     f" {_num(r.empirical):>10} {_num(bound):>10} {_num(r.ratio):>10}"
+                     f" {verdict(float(r.empirical), bound):>8}")
+    return "\n".join(lines)
+
+
+def job_line(k: int, n: int | None, overrides: list[str], status: str,
+             key_metric: tuple[str, float] | None) -> str:
+    """``[k/N] overrides -> status, metric = value`` (``[k]`` when N is unknown)."""
+    head = f"[{k}/{n}]" if n else f"[{k}]"
+    tail = f", {key_metric[0]} = {_num(key_metric[1])}" if key_metric else ""
+    return f"{head} {' '.join(overrides) or '(no overrides)'} → {status}{tail}"
