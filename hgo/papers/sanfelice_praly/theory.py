@@ -33,7 +33,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import cvxpy as cp
 import numpy as np
 import scipy.linalg as sla
 
@@ -191,7 +190,8 @@ def check_conditions(
     return ConditionReport(lam_min, lyap_max, decay, r_lo, r_hi, bool(holds), tol)
 
 
-def _sym(M: cp.Expression) -> cp.Expression:
+def _sym(M):
+    """Symmetric part of a matrix or a cvxpy expression."""
     return 0.5 * (M + M.T)
 
 
@@ -199,6 +199,8 @@ class _LmiProblem:
     """Parametrised SDP in (P, Y = P K~) for fixed (d0, d1): Sanfelice & Praly (8)-(10)."""
 
     def __init__(self, n: int, b: float, kappa: float, margin: float, solver: str) -> None:
+        import cvxpy as cp  # 1 s to import: only when an LMI is solved
+
         A, C, R = triangular_matrices(n, b)
         eye = np.eye(n)
         self.P = cp.Variable((n, n), symmetric=True)
@@ -219,6 +221,8 @@ class _LmiProblem:
         self.solver = solver
 
     def feasible(self, d0: float, d1: float) -> bool:
+        import cvxpy as cp
+
         self.d0.value, self.d1.value = d0, d1
         try:
             self.problem.solve(solver=self.solver)
