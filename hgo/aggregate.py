@@ -113,7 +113,8 @@ def _cell(row) -> str:
     text = _fmt(row.empirical)
     bound = float(row.bound) if "bound" in row and pd.notna(row.bound) else math.nan
     if math.isfinite(bound):
-        mark = {True: "✓", False: "✗"}.get(_truth(row.get("holds")), "?")
+        mark = row.get("verdict") if isinstance(row.get("verdict"), str) else \
+            {True: "✓", False: "✗"}.get(_truth(row.get("holds")), "?")
         text += f" (≤ {_fmt(bound)} {mark})"
     return text
 

@@ -76,6 +76,8 @@ class MetricsConf:
     """Trailing window [t_end - window, t_end] of the mean-error estimates (11)-(12)."""
 
     window: float = 25.0
+    # a bound above vacuous_factor x the measured value is shown as ``vacuous``, not ✓
+    vacuous_factor: float = 1e6
 
 
 @dataclass

@@ -10,18 +10,9 @@ import math
 
 import pandas as pd
 
+from hgo.metrics import verdict
+
 WIDTH = 100
-# a bound larger than the measured value by more than this says nothing about it
-VACUOUS_FACTOR = 1e6
-
-
-def verdict(value: float, bound: float, vacuous_factor: float = VACUOUS_FACTOR) -> str:
-    """✓ / ✗ / ``vacuous`` (bound > factor x |value|, value not 0) / ``""`` (no bound)."""
-    if not (isinstance(bound, int | float) and math.isfinite(bound)):
-        return ""
-    if not math.isfinite(value) or value > bound:
-        return "✗"
-    return "vacuous" if 0 < vacuous_factor * abs(value) < bound else "✓"
 
 
 def _num(v: float) -> str:
@@ -36,6 +27,12 @@ def _clip(text: str, n: int) -> str:
     return text if len(text) <= n else text[: n - 1] + "…"
 
 
+def _verdict(row, bound: float) -> str:
+    """The row's own verdict (its run's vacuous factor), else computed with the default."""
+    given = getattr(row, "verdict", None)
+    return given if isinstance(given, str) else verdict(float(row.empirical), bound)
+
+
 def compact_table(table: pd.DataFrame, width: int = WIDTH) -> str:
     """The metrics of a run in at most ``width`` columns, duplicates dropped."""
     rows = table.drop_duplicates(subset=["observer", "quantity"])
@@ -48,7 +45,7 @@ def compact_table(table: pd.DataFrame, width: int = WIDTH) -> str:
         bound = float(r.bound) if pd.notna(r.bound) else math.nan
         lines.append(f"{_clip(str(r.observer), obs_w):{obs_w}} {_clip(str(r.quantity), q_w):{q_w}}"
                      f" {_num(r.empirical):>10} {_num(bound):>10} {_num(r.ratio):>10}"
-                     f" {verdict(float(r.empirical), bound):>8}")
+                     f" {_verdict(r, bound):>8}")
     return "\n".join(lines)
 
 

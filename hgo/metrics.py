@@ -19,17 +19,32 @@ import pandas as pd
 from hgo.engine.simulate import STATUS
 from hgo.engine.system import System
 
-COLUMNS = ["observer", "postprocess", "quantity", "empirical", "bound", "ratio", "holds", "window",
-           "status", "t_stop", "message"]
+COLUMNS = ["observer", "postprocess", "quantity", "empirical", "bound", "ratio", "holds",
+           "verdict", "window", "status", "t_stop", "message"]
+# a bound larger than the measured value by more than this factor says nothing about it:
+# shown as ``vacuous`` rather than ✓ (``metrics.vacuous_factor``)
+VACUOUS_FACTOR = 1e6
 
 
-def metric_row(observer: str, quantity: str, value: float, bound: float | None) -> dict:
-    """One metric row: value against its bound (None or NaN: no bound from the papers)."""
+def verdict(value: float, bound: float, vacuous_factor: float = VACUOUS_FACTOR) -> str:
+    """✓ (value <= bound), ✗, ``vacuous`` (bound > factor x |value|, value not 0), or
+    ``""`` when there is no bound."""
+    if not (isinstance(bound, int | float) and math.isfinite(bound)):
+        return ""
+    if not math.isfinite(value) or value > bound:
+        return "✗"
+    return "vacuous" if 0 < vacuous_factor * abs(value) < bound else "✓"
+
+
+def metric_row(observer: str, quantity: str, value: float, bound: float | None,
+               vacuous_factor: float = VACUOUS_FACTOR) -> dict:
+    """One metric row: value against its bound (None or NaN: no bound from the papers);
+    ``holds`` is value <= bound, ``verdict`` what a table shows (see :func:`verdict`)."""
     bound = math.nan if bound is None else float(bound)
     ratio = value / bound if bound and math.isfinite(bound) else math.nan
     holds = bool(value <= bound) if math.isfinite(bound) and math.isfinite(value) else None
     return {"observer": observer, "quantity": quantity, "empirical": value, "bound": bound,
-            "ratio": ratio, "holds": holds}
+            "ratio": ratio, "holds": holds, "verdict": verdict(value, bound, vacuous_factor)}
 
 
 def window_means(system: System, acc: np.ndarray) -> dict[tuple[str, str], float]:
@@ -48,7 +63,8 @@ def window_means(system: System, acc: np.ndarray) -> dict[tuple[str, str], float
 
 def metrics_table(system: System, acc: np.ndarray, status: int, t_stop: float,
                   extra_bounds: dict[tuple[str, str], float] | None = None,
-                  extra_rows: list[dict] | None = None) -> pd.DataFrame:
+                  extra_rows: list[dict] | None = None,
+                  vacuous_factor: float = VACUOUS_FACTOR) -> pd.DataFrame:
     """One row per (observer, quantity): empirical mean, bound, ratio, holds, run status.
 
     ``extra_bounds`` fill the bound of the engine's rows, ``extra_rows`` (post-processing:
@@ -63,13 +79,14 @@ def metrics_table(system: System, acc: np.ndarray, status: int, t_stop: float,
         if status != 0:
             value = math.nan
         bound = extra_bounds.get((name, quantity), observers[name].bounds.get(quantity))
-        rows.append({**metric_row(name, quantity, float(value), bound), "postprocess": ""})
+        rows.append({**metric_row(name, quantity, float(value), bound, vacuous_factor),
+                     "postprocess": ""})
     for extra in extra_rows or []:
         row = metric_row(extra["observer"], extra["quantity"], float(extra["empirical"]),
-                   extra.get("bound"))
+                         extra.get("bound"), vacuous_factor)
         rows.append({**extra, **row})
     table = pd.DataFrame(rows)
-    table["window"] = float(acc[-1])
+    table["window"] = float(f"{acc[-1]:.12g}")  # a sum of steps: no round-off digits
     table["status"] = "ok" if status == 0 else "failed"
     table["t_stop"] = float(t_stop)
     table["message"] = STATUS[status]

@@ -26,9 +26,7 @@ from pathlib import Path
 import pandas as pd
 
 from hgo.claims import NOT_REPRODUCED, VERDICTS, all_claims
-
-# a bound larger than the measured value by this factor says nothing about it
-VACUOUS_FACTOR = 1e6
+from hgo.metrics import verdict
 
 
 @dataclass
@@ -62,18 +60,6 @@ def agreement(verdict: str, holds: bool | None) -> str:
     return "agrees" if holds == expected else "DISAGREES"
 
 
-def holds_label(row) -> str:
-    """✓ / ✗ / vacuous (bound > VACUOUS_FACTOR x measured) / empty (no bound)."""
-    bound, value = row["bound"], row["empirical"]
-    if not (isinstance(bound, float) and math.isfinite(bound)):
-        return ""
-    if not math.isfinite(value):
-        return "✗ (no value)"
-    if value <= bound and value > 0 and bound > VACUOUS_FACTOR * value:
-        return "vacuous"
-    return "✓" if value <= bound else "✗"
-
-
 def _bound_rows(paper: str, plan) -> pd.DataFrame | None:
     frames = []
     for job in plan:
@@ -88,7 +74,8 @@ def _bound_rows(paper: str, plan) -> pd.DataFrame | None:
     if not frames:
         return None
     rows = pd.concat(frames, ignore_index=True)
-    rows["holds"] = [holds_label(r) for _, r in rows.iterrows()]
+    rows["holds"] = [verdict(float(v), float(b)) for v, b in zip(rows.empirical, rows.bound,
+                                                                 strict=True)]
     return rows[["run", "observer", "quantity", "empirical", "bound", "ratio", "holds"]]
 
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import functools
 import logging
+import math
 import re
 import time
 import uuid
@@ -112,6 +113,14 @@ def build_system(nodes: Mapping) -> System:
     return System(plant, observers, _instantiate(ctrl, "controller", Controller) if ctrl else None)
 
 
+def vacuous_factor(cfg: DictConfig) -> float:
+    """``metrics.vacuous_factor``, checked: a number > 1."""
+    factor = cfg.metrics.get("vacuous_factor", 1e6)
+    if not (isinstance(factor, int | float) and factor > 1 and math.isfinite(factor)):
+        raise ValueError(f"metrics.vacuous_factor must be a finite number > 1, got {factor}")
+    return float(factor)
+
+
 def solver_settings(cfg: DictConfig) -> SolverSettings:
     """The ``solver`` group plus the metrics window, validated."""
     s = cfg.solver
@@ -126,6 +135,7 @@ def solver_settings(cfg: DictConfig) -> SolverSettings:
 def build(cfg: DictConfig) -> Experiment:
     """Instantiate and check every component; raises ValueError naming the bad key."""
     solver = solver_settings(cfg)
+    vacuous_factor(cfg)
     system = build_system(cfg)
     noise = _instantiate(cfg.noise, "noise", NoiseModel)
     return Experiment(system, solver, noise, int(cfg.seed))
@@ -191,11 +201,16 @@ def recording_id(out_dir: Path) -> str:
 
 def postprocess(cfg: DictConfig, exp: Experiment, traj: Trajectory) -> PostOutput:
     """Apply every post-processor of the ``postprocess`` group, in config order."""
-    total = PostOutput()
+    total, seen = PostOutput(), {}
     for name, node in (cfg.get("postprocess") or {}).items():
         out = instantiate(node).apply(exp.system, traj)
         total.series += out.series
-        total.rows += [{"postprocess": name, **row} for row in out.rows]
+        for row in out.rows:  # a row two post-processors both give (same value) once
+            key = (row["observer"], row["quantity"])
+            if key in seen and seen[key] == row["empirical"]:
+                continue
+            seen[key] = row["empirical"]
+            total.rows.append({"postprocess": name, **row})
         total.bounds.update(out.bounds)
     return total
 
@@ -256,7 +271,7 @@ def simulate_config(cfg: DictConfig) -> MemoryRun:
     t_sim = time.perf_counter() - t0 - t_compile
     post = postprocess(cfg, exp, traj) if traj.ok else PostOutput()
     table = metrics_table(exp.system, traj.acc, traj.status, traj.t_stop, post.bounds,
-                          post.rows)
+                          post.rows, vacuous_factor(cfg))
     table.insert(0, "run", cfg.get("run_name", "run"))
     return MemoryRun(exp, traj, post, table, t_sim, t_compile)
 

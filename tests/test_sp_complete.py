@@ -138,7 +138,7 @@ def test_claim3_fig4_notch_reduces_oscillation_by_a_large_factor(runs):
     """
     _, m = runs["fig4"]
     for k in (1, 2):
-        before = _value(m, "sign_indefinite", f"amplitude_xhat{k}", "notch")
+        before = _value(m, "sign_indefinite", f"amplitude_xhat{k}", "oscillation")
         after = _value(m, "sign_indefinite", f"amplitude_xhat{k}_f", "notch")
         factor = _value(m, "sign_indefinite", f"notch_reduction_xhat{k}", "notch")
         assert factor == pytest.approx(before / after)
