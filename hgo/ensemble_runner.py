@@ -33,6 +33,7 @@ from hgo.ensemble import draw_members, member_nodes, stack_members, stiffest_env
 from hgo.figures.ensemble import metric_histograms
 from hgo.metrics import metric_row, window_means
 from hgo.noise import NoiseModel
+from hgo.progress import bar
 from hgo.recording import write_recording
 from hgo.runner import (
     _instantiate,
@@ -63,10 +64,12 @@ def _simulate_chunks(system: System, solver, noise, params, z0, d0) -> dict[str,
     n = len(params)
     edges = np.unique(np.linspace(0, n, min(CHUNKS, n) + 1).astype(int))
     parts, start = [], time.perf_counter()
-    for a, b in zip(edges[:-1], edges[1:], strict=True):
-        parts.append(simulate_ensemble(system, solver, noise[a:b], params[a:b], z0[a:b],
-                                       d0[a:b]))
-        log.info("ensemble: %d/%d members (%.2f s)", b, n, time.perf_counter() - start)
+    with bar(n, "ensemble", "members") as progress:
+        for a, b in zip(edges[:-1], edges[1:], strict=True):
+            parts.append(simulate_ensemble(system, solver, noise[a:b], params[a:b], z0[a:b],
+                                           d0[a:b]))
+            progress.update(b - a)
+            log.info("ensemble: %d/%d members (%.2f s)", b, n, time.perf_counter() - start)
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
 

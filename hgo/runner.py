@@ -32,6 +32,7 @@ from hgo.engine.system import System
 from hgo.metrics import metrics_table
 from hgo.noise import NoiseModel
 from hgo.postprocess import PostOutput
+from hgo.progress import compile_progress
 from hgo.recording import Series, time_series_blueprint, write_recording
 
 log = logging.getLogger(__name__)
@@ -265,7 +266,7 @@ def simulate_config(cfg: DictConfig) -> MemoryRun:
     """Build, simulate, post-process and tabulate the metrics of a composed config."""
     exp = build(cfg)
     t0 = time.perf_counter()
-    with compile_timer() as compiling:
+    with compile_timer() as compiling, compile_progress(exp.solver.method):
         traj = run_experiment(exp)
     t_compile = compiling.duration if compiling.done else 0.0
     t_sim = time.perf_counter() - t0 - t_compile
