@@ -83,7 +83,6 @@ def _status(table: pd.DataFrame | None, error: BaseException | None) -> str:
 
 @hydra.main(version_base="1.3", config_path=str(conf_dir()), config_name="config")
 def main(cfg: DictConfig) -> None:
-    from hgo.ensemble_runner import run_ensemble
     from hgo.runner import run
 
     hc = HydraConfig.get()
@@ -93,7 +92,12 @@ def main(cfg: DictConfig) -> None:
         logging.getLogger("hgo").setLevel(logging.WARNING)
     started, result, error = datetime.now(), None, None
     try:
-        result = run_ensemble(cfg, out_dir) if cfg.ensemble.size > 0 else run(cfg, out_dir)
+        if cfg.ensemble.size > 0:
+            from hgo.ensemble_runner import run_ensemble
+
+            result = run_ensemble(cfg, out_dir)
+        else:
+            result = run(cfg, out_dir)
     except Exception as err:
         error = err
         raise
