@@ -34,15 +34,18 @@ from hgo.figures.ensemble import metric_histograms
 from hgo.metrics import metric_row, window_means
 from hgo.noise import NoiseModel
 from hgo.recording import write_recording
+from hgo.errors import ConfigError
 from hgo.runner import (
     _instantiate,
     blueprint,
     build_system,
+    check_cost,
     job_config_yaml,
     recording_id,
     signals,
     solver_settings,
 )
+from hgo.validate import check_values
 
 log = logging.getLogger(__name__)
 CHUNKS = 10  # progress is reported after each tenth of the members
@@ -102,24 +105,52 @@ def _aggregate(members: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def run_ensemble(cfg: DictConfig, out_dir: str | Path) -> EnsembleResult:
-    """Draw, build, integrate and tabulate ``cfg.ensemble.size`` members."""
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+@dataclass
+class EnsemblePlan:
+    """An ensemble built and checked, not yet integrated."""
+
+    systems: list[System]
+    draws: dict[str, np.ndarray]
+    solver: object
+    noise: list
+    params: np.ndarray
+    z0: np.ndarray
+    d0: np.ndarray
+
+
+def prepare_ensemble(cfg: DictConfig) -> EnsemblePlan:
+    """Check the config, draw and build every member and sample its noise (no integration)."""
+    check_values(cfg)
     size, seed = int(cfg.ensemble.size), int(cfg.seed)
-    skipped = [k for k in ("postprocess", "figures") if cfg.get(k)]
-    if skipped:
-        log.warning("ensemble: %s not applied (members keep metrics, not trajectories)",
-                    " and ".join(skipped))
+    if size < 1:
+        raise ConfigError("ensemble.size", f"must be >= 1 for an ensemble, got {size}",
+                          "0 for a single run, or >= 1")
     solver = solver_settings(cfg)
     noise_model = _instantiate(cfg.noise, "noise", NoiseModel)
     draws = draw_members(cfg.ensemble.vary, size, int(cfg.ensemble.seed))
     systems = [build_system(nodes) for nodes in member_nodes(cfg, draws)] if draws else \
         [build_system(cfg)] * size
-    params, z0, d0 = stack_members(systems)
     ny = len(systems[0].plant.output_names)
+    noise_model.check_channels(ny)
+    check_cost(stiffest_envelope(systems), solver, noise_model)
+    params, z0, d0 = stack_members(systems)
     noise = [noise_model.sample(solver.t_end, ny, seed + i) for i in range(size)]
-    out = _simulate_chunks(stiffest_envelope(systems), solver, noise, params, z0, d0)
+    return EnsemblePlan(systems, draws, solver, noise, params, z0, d0)
+
+
+def run_ensemble(cfg: DictConfig, out_dir: str | Path) -> EnsembleResult:
+    """Draw, build, integrate and tabulate ``cfg.ensemble.size`` members."""
+    out_dir = Path(out_dir)
+    skipped = [k for k in ("postprocess", "figures") if cfg.get(k)]
+    if skipped:
+        log.warning("ensemble: %s not applied (members keep metrics, not trajectories)",
+                    " and ".join(skipped))
+    plan = prepare_ensemble(cfg)
+    size, systems, draws, solver, noise = (len(plan.systems), plan.systems, plan.draws,
+                                           plan.solver, plan.noise)
+    params, z0 = plan.params, plan.z0
+    out_dir.mkdir(parents=True, exist_ok=True)
+    out = _simulate_chunks(stiffest_envelope(systems), solver, noise, params, z0, plan.d0)
 
     members = pd.DataFrame(_member_rows(systems, draws, out))
     table = pd.concat([members, _aggregate(members)], ignore_index=True)

@@ -26,6 +26,7 @@ import numpy as np
 
 from hgo.engine.codegen import load_kernel
 from hgo.engine.system import System
+from hgo.errors import ConfigError
 
 RK4_STABILITY = 2.785  # |h*lambda| limit of classical RK4 on the negative real axis
 METHODS = {"rk4": 0, "dopri5": 1, "dop853": 2}
@@ -45,20 +46,55 @@ class SolverSettings:
     state_bound: float = 1e6
     window: float = 0.0  # trailing window of the mean-error metrics; 0: last quarter
     stability_safety: float = 0.9
+    max_steps: int = 10 ** 9  # a run stops (failed) after this many integration steps
+    max_output_rows: int = 10 ** 8  # runs recording more output rows are refused up front
 
     def validate(self) -> None:
+        """Every setting in its range (keys named as in the config: solver.*, metrics.*)."""
         if self.method not in METHODS:
-            raise ValueError(f"solver.method: '{self.method}' not in {sorted(METHODS)}")
-        for key in ("t_end", "dt_out", "h_max", "rtol", "atol", "state_bound"):
+            raise ConfigError("solver.method", f"'{self.method}' is not a method",
+                              ", ".join(sorted(METHODS)))
+        for key in ("t_end", "dt_out", "rtol", "atol"):
+            value = getattr(self, key)
+            if not (value > 0 and math.isfinite(value)):
+                raise ConfigError(f"solver.{key}", f"must be > 0 and finite, got {value}")
+        for key in ("h_max", "state_bound"):  # inf: no cap
             if not getattr(self, key) > 0:
-                raise ValueError(f"solver.{key} must be > 0, got {getattr(self, key)}")
+                raise ConfigError(f"solver.{key}", f"must be > 0, got {getattr(self, key)}",
+                                  "(0, inf]")
+        if not self.rtol < 1:
+            raise ConfigError("solver.rtol", f"must be < 1, got {self.rtol}", "(0, 1)")
+        if not 0 < self.stability_safety <= 1:
+            raise ConfigError("solver.stability_safety", "the fraction of RK4's stability "
+                              f"limit taken as step cap must be in (0, 1], got "
+                              f"{self.stability_safety}", "(0, 1]")
+        for key in ("max_steps", "max_output_rows"):
+            value = getattr(self, key)
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+                raise ConfigError(f"solver.{key}", f"must be an integer >= 1, got {value!r}")
         ratio = self.t_end / self.dt_out
+        if ratio > self.max_output_rows:
+            raise ConfigError("solver.dt_out", f"the run records {ratio + 1:.3g} output rows "
+                              f"(t_end / dt_out + 1), over solver.max_output_rows = "
+                              f"{self.max_output_rows:.3g}", "raise solver.dt_out, lower "
+                              "solver.t_end or raise solver.max_output_rows")
         if abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio):
-            raise ValueError(f"solver.t_end ({self.t_end}) must be a multiple of "
-                             f"solver.dt_out ({self.dt_out})")
-        if not 0 <= self.window <= self.t_end:
-            raise ValueError(f"solver.window must be in [0, t_end={self.t_end}], "
-                             f"got {self.window}")
+            raise ConfigError("solver.t_end", f"must be a multiple of solver.dt_out "
+                              f"({self.dt_out}), got {self.t_end}")
+        if not (0 <= self.window <= self.t_end and math.isfinite(self.window)):
+            raise ConfigError("metrics.window", f"must be in [0, solver.t_end = {self.t_end}] "
+                              f"(0: the last quarter), got {self.window}")
+
+    def min_steps(self, spectral_radius: float, noise_period: float) -> float:
+        """A lower estimate of the integration steps: the horizon over the step cap, plus
+        one step per noise sample (and, for RK4, per output instant: both cut the steps)."""
+        cap = self.effective_h_max(spectral_radius)
+        steps = self.t_end / cap if math.isfinite(cap) else 0.0
+        if math.isfinite(noise_period) and noise_period > 0:
+            steps += self.t_end / noise_period
+        if self.method == "rk4":
+            steps += self.t_end / self.dt_out
+        return steps
 
     @property
     def t_window(self) -> float:

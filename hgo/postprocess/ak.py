@@ -32,6 +32,7 @@ import numpy as np
 
 from hgo.engine.simulate import Trajectory
 from hgo.engine.system import System
+from hgo.errors import ConfigError
 from hgo.observers.switched_hgo import DISC_NAMES
 from hgo.postprocess import PostOutput
 from hgo.recording import Series
@@ -81,13 +82,21 @@ class AKMetrics:
     def __post_init__(self) -> None:
         for key in ("transient", "late_window"):
             if not getattr(self, key) > 0:
-                raise ValueError(f"postprocess ak_metrics.{key} must be in (0, inf) seconds, "
+                raise ValueError(f"postprocess.ak_metrics.{key} must be in (0, inf) seconds, "
                                  f"got {getattr(self, key)}")
+
+    def check(self, system: System, solver, key: str) -> None:
+        """Both windows inside the run, before it starts (a longer one would be clipped)."""
+        for name in ("transient", "late_window"):
+            if getattr(self, name) > solver.t_end:
+                raise ConfigError(f"{key}.{name}", f"{getattr(self, name)} s is longer than "
+                                  f"the run (solver.t_end = {solver.t_end})",
+                                  f"(0, {solver.t_end}]")
 
     def apply(self, system: System, traj: Trajectory) -> PostOutput:
         t = traj.t
         if self.late_window > t[-1] or self.transient > t[-1]:
-            raise ValueError(f"postprocess ak_metrics: windows (transient={self.transient}, "
+            raise ValueError(f"postprocess.ak_metrics: windows (transient={self.transient}, "
                              f"late_window={self.late_window}) exceed t_end={t[-1]:g}")
         out = PostOutput()
         first = t <= self.transient + 1e-12
