@@ -16,8 +16,8 @@ import hydra
 from hydra.core.hydra_config import HydraConfig
 from omegaconf import DictConfig
 
-from hgo.job import one_line_errors, run_job
 from hgo.config import register_configs
+from hgo.job import one_line_errors, run_job
 
 register_configs()
 

@@ -30,11 +30,11 @@ from omegaconf import DictConfig
 from hgo.engine.simulate import STATUS, simulate, simulate_ensemble
 from hgo.engine.system import System
 from hgo.ensemble import draw_members, member_nodes, stack_members, stiffest_envelope
+from hgo.errors import ConfigError
 from hgo.figures.ensemble import metric_histograms
 from hgo.metrics import metric_row, window_means
 from hgo.noise import NoiseModel
 from hgo.recording import write_recording
-from hgo.errors import ConfigError
 from hgo.runner import (
     _instantiate,
     blueprint,

@@ -114,7 +114,8 @@ def as_floats(key: str, value, shape: tuple[int | None, ...] | None = None):
         kind = "rows" if shape is not None and len(shape) == 2 else "a list"
         raise ConfigError(key, f"must be {kind} of numbers, got {value!r}") from None
     if shape is not None and (arr.ndim != len(shape) or any(
-            want is not None and have != want for have, want in zip(arr.shape, shape))):
+            want is not None and have != want
+            for have, want in zip(arr.shape, shape, strict=True))):
         want = " x ".join("n" if s is None else str(s) for s in shape)
         raise ConfigError(key, f"must have shape {want}, got {value!r}")
     if not np.all(np.isfinite(arr)):

@@ -45,7 +45,7 @@ class NoiseModel:
         for key in ("amplitude", "std"):  # a value the chosen kind ignores is a mistake
             if key not in used and getattr(self, key) != 0:
                 raise ConfigError(f"noise.{key}", f"is ignored by noise.kind={self.kind}, "
-                                  f"got {getattr(self, key)}", f"0, or noise.kind="
+                                  f"got {getattr(self, key)}", "0, or noise.kind="
                                   + ("uniform" if key == "amplitude" else "gaussian"))
         if not self.channels:
             raise ConfigError("noise.channels", "is empty", "a list of output channels")
