@@ -19,17 +19,25 @@ Units: time in seconds of simulated time; states in the plant's own units.
 from __future__ import annotations
 
 import math
+import pickle
 import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
-from hgo.engine.codegen import load_kernel
+from hgo.engine.codegen import (
+    damaged_cache_file,
+    forget_kernel,
+    load_kernel,
+    remove_cache_entry,
+)
 from hgo.engine.system import System
 from hgo.errors import ConfigError
 
 RK4_STABILITY = 2.785  # |h*lambda| limit of classical RK4 on the negative real axis
 METHODS = {"rk4": 0, "dopri5": 1, "dop853": 2}
+CACHE_ERRORS = (pickle.UnpicklingError, EOFError)  # numba reading a damaged cache file
+MAX_CACHE_REPAIRS = 64  # damaged cache files deleted (one per retry) before giving up
 STATUS = {0: "ok", 1: "non-finite state", 2: "state left the bound", 3: "step size underflow"}
 
 
@@ -150,7 +158,7 @@ def _kernel(system: System, method: str):
 def _call(system: System, method: str, fname: str, *args):
     module = _kernel(system, method)
     try:
-        return getattr(module, fname)(*args)
+        return _call_repairing_cache(system, method, module, fname, args)
     except Exception as err:  # numba typing/lowering errors of user components
         if type(err).__module__.split(".")[0] != "numba":
             raise
@@ -158,6 +166,28 @@ def _call(system: System, method: str, fname: str, *args):
         warnings.warn(f"hgo: numba could not compile this system ({first}); running on the "
                       "pure-Python path (slow).", RuntimeWarning, stacklevel=3)
         return getattr(load_kernel(system, compiled=False, method=method), fname)(*args)
+
+
+def _call_repairing_cache(system: System, method: str, module, fname: str, args: tuple):
+    """Call the kernel; a damaged numba cache file (truncated, corrupted) is deleted, with
+    one warning, and the kernel recompiled, until the call goes through."""
+    warned = False
+    for _ in range(MAX_CACHE_REPAIRS):
+        try:
+            return getattr(module, fname)(*args)
+        except CACHE_ERRORS as err:
+            damaged = damaged_cache_file(err)
+            if damaged is None:
+                raise
+            if not warned:
+                warnings.warn(f"hgo: a numba cache entry is damaged ({damaged.name}: "
+                              f"{type(err).__name__}: {_reason(str(err))}); deleting it and "
+                              "recompiling", RuntimeWarning, stacklevel=4)
+                warned = True
+            remove_cache_entry(damaged)
+            forget_kernel(module)
+            module = _kernel(system, method)
+    return getattr(module, fname)(*args)
 
 
 def _reason(message: str) -> str:
