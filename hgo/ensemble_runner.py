@@ -27,15 +27,16 @@ import numpy as np
 import pandas as pd
 from omegaconf import DictConfig
 
-from hgo.engine.simulate import STATUS, simulate, simulate_ensemble
+from hgo.engine.simulate import INTERRUPTED, STATUS, simulate, simulate_ensemble
 from hgo.engine.system import System
 from hgo.ensemble import draw_members, member_nodes, stack_members, stiffest_envelope
 from hgo.errors import ConfigError
 from hgo.figures.ensemble import metric_histograms
-from hgo.metrics import metric_row, window_means
+from hgo.metrics import metric_row, status_word, window_means
 from hgo.noise import NoiseModel
-from hgo.recording import write_recording
+from hgo.recording import atomic_output, write_recording
 from hgo.runner import (
+    RunInterrupted,
     _instantiate,
     blueprint,
     build_system,
@@ -44,6 +45,7 @@ from hgo.runner import (
     recording_id,
     signals,
     solver_settings,
+    status_text,
 )
 from hgo.validate import check_values
 
@@ -83,7 +85,7 @@ def _member_rows(systems, draws, out) -> list[dict]:
             value = float(value) if st == 0 else np.nan
             rows.append({"member": str(i),
                          **metric_row(obs, quantity, value, bounds[obs].get(quantity)),
-                         "status": "ok" if st == 0 else "failed",
+                         "status": status_word(st),
                          "t_stop": float(out["t_stop"][i]), "message": STATUS[st], **drawn})
     return rows
 
@@ -155,7 +157,8 @@ def run_ensemble(cfg: DictConfig, out_dir: str | Path) -> EnsembleResult:
     members = pd.DataFrame(_member_rows(systems, draws, out))
     table = pd.concat([members, _aggregate(members)], ignore_index=True)
     table.insert(0, "run", cfg.get("run_name", "run"))
-    table.to_csv(out_dir / "metrics.csv", index=False)
+    with atomic_output(out_dir / "metrics.csv") as partial:
+        table.to_csv(partial, index=False)
     log.info("ensemble metrics (aggregate):\n%s",
              table[table.member == "all"].dropna(axis=1, how="all").to_string(index=False))
 
@@ -164,10 +167,13 @@ def run_ensemble(cfg: DictConfig, out_dir: str | Path) -> EnsembleResult:
     write_recording(out_dir / "recording.rrd", first.t, series,
                     recording_id=recording_id(out_dir),
                     blueprint=blueprint(systems[0], series),
-                    text={"/run/status": f"ensemble of {size}; this recording: member 0",
+                    text={"/run/status": f"ensemble of {size}; this recording: member 0, "
+                                         + status_text(first),
                           "/run/config": job_config_yaml(cfg)})
     metric_histograms(members, out_dir / "ensemble.png")
     n_failed = int((out["status"] != 0).sum())
     if n_failed:
         log.warning("ensemble: %d of %d members stopped early (see metrics.csv)", n_failed, size)
+    if (out["status"] == INTERRUPTED).any() or first.status == INTERRUPTED:
+        raise RunInterrupted(f"ensemble interrupted (outputs up to then are in {out_dir})")
     return EnsembleResult(systems, draws, out["acc"], out["status"], out["t_stop"], table)

@@ -99,7 +99,7 @@ def is_config_error(err: BaseException) -> bool:
     from hydra.errors import HydraException
     from omegaconf.errors import OmegaConfBaseException
 
-    return any(isinstance(e, (ValueError, TypeError, KeyError, yaml.YAMLError,
+    return any(isinstance(e, (ValueError, TypeError, yaml.YAMLError,
                               HydraException, OmegaConfBaseException)) for e in _chain(err))
 
 

@@ -62,25 +62,42 @@ def check_config(cfg: DictConfig) -> None:
         build(cfg)
 
 
-def run_job(cfg: DictConfig, out_dir: str | Path) -> None:
-    """Run ``cfg`` into ``out_dir``; errors are reported as one line (see module doc)."""
+def run_job(cfg: DictConfig, out_dir: str | Path) -> int:
+    """Run ``cfg`` into ``out_dir``; returns the exit code (0: ok), errors reported as one
+    line (see module doc). Ctrl-C ends the process (exit 130) after the one line: a sweep
+    stops there; the interrupted job keeps its outputs (``*.partial`` if mid-write)."""
     from hgo.ensemble_runner import run_ensemble
-    from hgo.runner import RunInterrupted, SimulationFailed, run
+    from hgo.runner import SimulationFailed, run
 
     try:
         if cfg.ensemble.size != 0:
             run_ensemble(cfg, out_dir)
         else:
             run(cfg, out_dir)
-    except (SimulationFailed, RunInterrupted) as err:
+    except KeyboardInterrupt as err:
         if full_error():
             raise
-        report(err, EXIT_INTERRUPTED if isinstance(err, RunInterrupted) else EXIT_FAILED)
+        report(err if str(err) else KeyboardInterrupt("interrupted (Ctrl-C) while writing; "
+                                                      f"incomplete files in {out_dir} end in "
+                                                      ".partial"), EXIT_INTERRUPTED)
+        raise SystemExit(EXIT_INTERRUPTED) from None
+    except SimulationFailed as err:
+        if full_error():
+            raise
+        report(err, EXIT_FAILED)
+        return EXIT_FAILED
+    except OSError as err:  # a full disk, a folder that cannot be written
+        if full_error():
+            raise
+        report(err, EXIT_FAILED)
+        return EXIT_FAILED
     except Exception as err:
         if full_error() or not is_config_error(err):
             raise
         remove_if_empty(out_dir)
         report(err, EXIT_CONFIG)
+        return EXIT_CONFIG
+    return 0
 
 
 @contextmanager

@@ -16,11 +16,16 @@ import math
 import numpy as np
 import pandas as pd
 
-from hgo.engine.simulate import STATUS
+from hgo.engine.simulate import INTERRUPTED, STATUS
 from hgo.engine.system import System
 
 COLUMNS = ["observer", "postprocess", "quantity", "empirical", "bound", "ratio", "holds", "window",
            "status", "t_stop", "message"]
+
+
+def status_word(status: int) -> str:
+    """``ok``, ``interrupted`` (Ctrl-C) or ``failed`` (any other early stop)."""
+    return "ok" if status == 0 else "interrupted" if status == INTERRUPTED else "failed"
 
 
 def metric_row(observer: str, quantity: str, value: float, bound: float | None) -> dict:
@@ -70,7 +75,7 @@ def metrics_table(system: System, acc: np.ndarray, status: int, t_stop: float,
         rows.append({**extra, **row})
     table = pd.DataFrame(rows)
     table["window"] = float(acc[-1])
-    table["status"] = "ok" if status == 0 else "failed"
+    table["status"] = status_word(status)
     table["t_stop"] = float(t_stop)
     table["message"] = STATUS[status]
     return table[COLUMNS + [c for c in table.columns if c not in COLUMNS]]

@@ -26,13 +26,13 @@ from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
 
 from hgo.components import Controller, Observer, Plant
-from hgo.engine.simulate import SolverSettings, Trajectory, simulate
+from hgo.engine.simulate import INTERRUPTED, SolverSettings, Trajectory, simulate
 from hgo.engine.system import System
 from hgo.errors import ConfigError
-from hgo.metrics import metrics_table
+from hgo.metrics import metrics_table, status_word
 from hgo.noise import NoiseModel
 from hgo.postprocess import PostOutput
-from hgo.recording import Series, time_series_blueprint, write_recording
+from hgo.recording import Series, atomic_output, time_series_blueprint, write_recording
 from hgo.validate import check_cost as _check_sizes
 from hgo.validate import check_values
 
@@ -292,6 +292,7 @@ class MemoryRun:
 def simulate_config(cfg: DictConfig) -> MemoryRun:
     """Build, simulate, post-process and tabulate the metrics of a composed config."""
     exp = build(cfg)
+    log.info("integrating t = 0 .. %g s (%s)", exp.solver.t_end, exp.solver.method)
     t0 = time.perf_counter()
     traj = run_experiment(exp)
     t_sim = time.perf_counter() - t0
@@ -302,28 +303,41 @@ def simulate_config(cfg: DictConfig) -> MemoryRun:
     return MemoryRun(exp, traj, post, table, t_sim)
 
 
+def status_text(traj: Trajectory) -> str:
+    """The run's status line (``/run/status`` of the recording)."""
+    if traj.ok:
+        return f"ok: t = 0 .. {traj.t_stop:g} s"
+    return f"{status_word(traj.status)} at t = {traj.t_stop:g} s: {traj.message}"
+
+
 def run(cfg: DictConfig, out_dir: str | Path) -> RunResult:
-    """Build, simulate and write ``recording.rrd``, ``metrics.csv`` and figures."""
+    """Build, simulate and write ``recording.rrd``, ``metrics.csv`` and figures.
+
+    Every file is written under ``<name>.partial`` and renamed when complete. A run that
+    stopped early raises :class:`SimulationFailed`, an interrupted one (Ctrl-C)
+    :class:`RunInterrupted`, both after writing what was computed."""
     out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
     mem = simulate_config(cfg)
+    out_dir.mkdir(parents=True, exist_ok=True)
     exp, traj, table = mem.experiment, mem.trajectory, mem.metrics
     series = signals(exp.system, traj) + mem.post.series
-    status_text = (f"ok: t = 0 .. {traj.t_stop:g} s" if traj.ok else
-                   f"failed at t = {traj.t_stop:g} s: {traj.message}")
     t1 = time.perf_counter()
     write_recording(out_dir / "recording.rrd", traj.t, series,
                     recording_id=recording_id(out_dir), blueprint=blueprint(exp.system, series),
-                    text={"/run/status": status_text,
+                    text={"/run/status": status_text(traj),
                           "/run/config": job_config_yaml(cfg)})
     log.info("simulated in %.3f s; recording of %d samples x %d columns written in %.3f s",
              mem.simulate_seconds, len(traj.t), sum(len(s.names) for s in series),
              time.perf_counter() - t1)
-    table.to_csv(out_dir / "metrics.csv", index=False)
+    with atomic_output(out_dir / "metrics.csv") as partial:
+        table.to_csv(partial, index=False)
     log.info("metrics:\n%s", table.to_string(index=False))
     result = RunResult(exp, traj, table, out_dir, series)
+    stopped = (f"run {status_word(traj.status)} at t = {traj.t_stop:g} s: {traj.message} "
+               f"(outputs up to then are in {out_dir})")
+    if traj.status == INTERRUPTED:
+        raise RunInterrupted(stopped)
     if not traj.ok:
-        raise SimulationFailed(f"run stopped at t = {traj.t_stop:g} s: {traj.message} "
-                               f"(outputs up to then are in {out_dir})")
+        raise SimulationFailed(stopped)
     _figures(cfg, result)
     return result

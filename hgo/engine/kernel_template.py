@@ -25,7 +25,11 @@ saturations) runs after every step, so switching instants are step boundaries to
   instants and the horizon do). Outputs that fall on a step end are taken after the
   step's discrete update (and after the noise sample change when they coincide with one).
 
-Status codes: 0 ok, 1 non-finite state, 2 state beyond ``bound``, 3 step-size underflow.
+Status codes: 0 ok, 1 non-finite state, 2 state beyond ``bound``, 3 step-size underflow,
+4 non-finite step size (a NaN/inf in the right-hand side or its parameters), 5 step limit
+``ctl[1]`` reached, 6 interrupted (``ctl[0]`` set by another thread: Ctrl-C). ``ctl`` is
+checked after every step (a load): the run stops within one step of a request, without
+any change to the integration itself.
 The record arrays (Z, D, Y, M, U, XH) are filled only when they have rows (an ensemble
 passes empty ones and keeps only the metric accumulators).
 """
@@ -128,7 +132,7 @@ def _emit(k, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0, tol
 
 @pjit
 def integrate_ensemble(Z0, D0, PP, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab,
-                       rho_const, bound, t_window, ACC, STATUS, T_STOP):
+                       rho_const, bound, t_window, ACC, STATUS, T_STOP, ctl):
     """Integrate many runs in parallel (one per row of Z0, D0, PP, noise), metrics only."""
     n_members = Z0.shape[0]
     for i in prange(n_members):
@@ -137,7 +141,7 @@ def integrate_ensemble(Z0, D0, PP, noise, noise_dt, t_end, dt_out, h_max, rtol, 
         d = D0[i].copy()
         st, n_rec, t_stop = integrate(z, d, PP[i], noise[i], noise_dt, t_end, dt_out, h_max,
                                       rtol, atol, stab, rho_const, bound, t_window, empty,
-                                      empty, empty, empty, empty, empty, ACC[i])
+                                      empty, empty, empty, empty, empty, ACC[i], ctl)
         STATUS[i] = st
         T_STOP[i] = t_stop
 
@@ -163,7 +167,7 @@ def _rk4_step(t, h, z, d, m, P, w, k1, k2, k3, k4, zt):
 
 @jit
 def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, rho_const,
-              bound, t_window, Z, D, Y, M, U, XH, acc):
+              bound, t_window, Z, D, Y, M, U, XH, acc, ctl):
     """Integrate one run (RK4). Returns (status, number of output samples, stop time).
 
     One compiled function (no wrapper around an inner one): every extra level of numba
@@ -187,6 +191,8 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
                                         bound, t_end, dt_out, t_window, Z, D, Y, M, U, XH)
     if status != 0:
         return status, 1, t
+    n_steps = 0
+    max_steps = ctl[1]
     for k_out in range(1, n_out):
         t_out = t_end if k_out == n_out - 1 else k_out * dt_out
         while True:
@@ -211,6 +217,11 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
                 status = _state_status(z, bound)
                 if status != 0:
                     return status, k_out, t
+                n_steps += 1
+                if n_steps > max_steps:
+                    return 5, k_out, t
+                if ctl[0] != 0:
+                    return 6, k_out, t
             t = t_next
             if t_noise <= t_out:
                 k_noise += 1
@@ -257,7 +268,7 @@ def _initial_step(t, z, d, m, P, w, k1, k2, zt, rtol, atol, h_max):
 
 @jit
 def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, rho_const,
-              bound, t_window, Z, D, Y, M, U, XH, acc):
+              bound, t_window, Z, D, Y, M, U, XH, acc, ctl):
     """Integrate one run (adaptive). Returns (status, number of output samples, stop time).
 
     One compiled function, as for RK4 (``stab`` and ``rho_const`` are unused here).
@@ -286,6 +297,8 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
     if status != 0:
         return status, 1, t
     k_out = np.int64(1)
+    n_steps = 0  # trials, accepted or rejected
+    max_steps = ctl[1]
     system_rhs(t, z, d, m, P, w, k1)
     h = _initial_step(t, z, d, m, P, w, k1, zo, zt, rtol, atol, h_max)
     fsal = True  # k1 holds f(t, z) for the current noise sample and discrete state
@@ -302,8 +315,13 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
             last = t + hh >= t_seg - tol
             if last:
                 hh = t_seg - t
-            if hh < 1e-14 * max(1.0, abs(t)):
-                return 3, k_out, t
+            if not hh >= 1e-14 * max(1.0, abs(t)):  # (NaN fails every comparison)
+                return 3 if math.isfinite(hh) else 4, k_out, t
+            n_steps += 1
+            if n_steps > max_steps:
+                return 5, k_out, t
+            if ctl[0] != 0:
+                return 6, k_out, t
             err = _trial(t, hh, z, d, m, P, w, K, zt, rtol, atol)
             if not err <= 1.0:  # rejected (or non-finite)
                 h = hh * (0.2 if not math.isfinite(err) else max(0.2, 0.9 * err ** ERR_EXP))

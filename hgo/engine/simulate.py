@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 import pickle
+import threading
 import warnings
 from dataclasses import dataclass
 
@@ -38,7 +39,11 @@ RK4_STABILITY = 2.785  # |h*lambda| limit of classical RK4 on the negative real 
 METHODS = {"rk4": 0, "dopri5": 1, "dop853": 2}
 CACHE_ERRORS = (pickle.UnpicklingError, EOFError)  # numba reading a damaged cache file
 MAX_CACHE_REPAIRS = 64  # damaged cache files deleted (one per retry) before giving up
-STATUS = {0: "ok", 1: "non-finite state", 2: "state left the bound", 3: "step size underflow"}
+STATUS = {0: "ok", 1: "non-finite state", 2: "state left the bound", 3: "step size underflow",
+          4: "non-finite step size (NaN/inf in the right-hand side or a parameter)",
+          5: "step limit solver.max_steps reached", 6: "interrupted"}
+INTERRUPTED = 6
+WAIT_S = 0.05  # the main thread wakes this often while a compiled integration runs
 
 
 @dataclass(frozen=True)
@@ -155,6 +160,34 @@ def _kernel(system: System, method: str):
         return load_kernel(system, compiled=False, method=method)
 
 
+def _interruptible(fn, args: tuple, ctl: np.ndarray):
+    """``fn(*args)`` in a worker thread; Ctrl-C in the main thread sets ``ctl[0]``, which the
+    kernel checks after every step: it returns (status 6) within one step, and its
+    outputs up to then are kept. A second Ctrl-C while it winds up interrupts at once."""
+    out: dict = {}
+    done = threading.Event()  # (not Thread.join: an interrupted join marks the thread
+    #                            stopped while it still runs, Python <= 3.12)
+
+    def work():
+        try:
+            out["value"] = fn(*args)
+        except BaseException as err:  # noqa: BLE001 - re-raised in the calling thread
+            out["error"] = err
+        finally:
+            done.set()
+
+    threading.Thread(target=work, name="hgo-integrate", daemon=True).start()
+    try:
+        while not done.wait(WAIT_S):
+            pass
+    except KeyboardInterrupt:
+        ctl[0] = 1
+        done.wait()
+    if "error" in out:
+        raise out["error"]
+    return out["value"]
+
+
 def _call(system: System, method: str, fname: str, *args):
     module = _kernel(system, method)
     try:
@@ -165,7 +198,8 @@ def _call(system: System, method: str, fname: str, *args):
         first = _reason(str(err))
         warnings.warn(f"hgo: numba could not compile this system ({first}); running on the "
                       "pure-Python path (slow).", RuntimeWarning, stacklevel=3)
-        return getattr(load_kernel(system, compiled=False, method=method), fname)(*args)
+        module = load_kernel(system, compiled=False, method=method)
+        return _interruptible(getattr(module, fname), args, args[-1])
 
 
 def _call_repairing_cache(system: System, method: str, module, fname: str, args: tuple):
@@ -174,7 +208,7 @@ def _call_repairing_cache(system: System, method: str, module, fname: str, args:
     warned = False
     for _ in range(MAX_CACHE_REPAIRS):
         try:
-            return getattr(module, fname)(*args)
+            return _interruptible(getattr(module, fname), args, args[-1])
         except CACHE_ERRORS as err:
             damaged = damaged_cache_file(err)
             if damaged is None:
@@ -187,7 +221,7 @@ def _call_repairing_cache(system: System, method: str, module, fname: str, args:
             remove_cache_entry(damaged)
             forget_kernel(module)
             module = _kernel(system, method)
-    return getattr(module, fname)(*args)
+    return _interruptible(getattr(module, fname), args, args[-1])
 
 
 def _reason(message: str) -> str:
@@ -214,6 +248,11 @@ def _common_args(system: System, solver: SolverSettings, noise: Noise) -> tuple:
     return (float(noise.dt), float(solver.t_end), float(solver.dt_out), float(solver.h_max),
             float(solver.rtol), float(solver.atol), float(stab), float(rho_const),
             float(solver.state_bound), float(solver.t_window))
+
+
+def _control(solver: SolverSettings) -> np.ndarray:
+    """The kernel's control vector: [stop request (set on Ctrl-C), step limit]."""
+    return np.array([0, solver.max_steps], dtype=np.int64)
 
 
 def _check_noise(system: System, noises: list[Noise]) -> None:
@@ -246,7 +285,7 @@ def simulate(system: System, solver: SolverSettings, noise: Noise,
     acc = np.zeros(system.nxh + len(system.observers) + 1)
     status, n_rec, t_stop = _call(
         system, solver.method, "integrate", z, d, P,
-        np.ascontiguousarray(noise.samples, float), *args, *rec, acc)
+        np.ascontiguousarray(noise.samples, float), *args, *rec, acc, _control(solver))
     t = np.arange(n_rec) * solver.dt_out
     Z, D, Y, M, U, XH = (a[:n_rec] for a in rec)
     return Trajectory(t, Z, D, Y, M, U, XH, int(status), float(t_stop), acc)
@@ -283,7 +322,7 @@ def simulate_ensemble(system: System, solver: SolverSettings, noise: list[Noise]
     t_stop = np.zeros(n)
     args = _common_args(system, solver, members[0])
     _call(system, solver.method, "integrate_ensemble", z0, d0, params, samples, *args, acc,
-          status, t_stop)
+          status, t_stop, _control(solver))
     return {"acc": acc, "status": status, "t_stop": t_stop}
 
 
