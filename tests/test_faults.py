@@ -63,3 +63,201 @@ def test_unwritable_kernel_cache_falls_back_to_a_private_folder(tmp_path):
     out = _kernel_run(tmp_path, blocker / "kernels")
     assert out.stderr.count("RuntimeWarning") == 1 and "not writable" in out.stderr
     assert float(out.stdout.split()[-1]) != 0.0
+
+
+# --- runs that must stop: NaN, step limit, Ctrl-C ------------------------------------
+
+SHORT = ["experiment=sp_oscillation", "postprocess=none", "solver.t_end=2",
+         "metrics.window=1"]
+
+
+def _system_and_noise():
+    from hgo.engine.simulate import no_noise
+    from hgo.engine.system import System
+    from hgo.observers.triangular import triangular_hgo
+    from hgo.plants.sp_linear import sp_linear_plant
+
+    obs = triangular_hgo("o", K=[2, 2], xhat0=[0, 0], law="constant")
+    return System(sp_linear_plant(), [obs]), no_noise(1)
+
+
+def test_nan_parameter_ends_the_adaptive_run_as_failed():
+    """A NaN parameter made dopri5 reject steps forever (h = NaN); now: status 4, t = 0."""
+    import numpy as np
+
+    from hgo.engine.simulate import STATUS, SolverSettings, simulate
+
+    system, noise = _system_and_noise()
+    params = system.params()
+    params[0] = np.nan  # nu1 of the plant
+    for method in ("dopri5", "dop853"):
+        tr = simulate(system, SolverSettings(t_end=1.0, dt_out=0.5, method=method), noise,
+                      params=params)
+        assert tr.status == 4 and "non-finite step size" in STATUS[tr.status]
+        assert tr.t_stop == 0.0
+
+
+def test_step_limit_ends_the_run_as_failed():
+    """solver.max_steps bounds every integrator (here 50 steps of a 1000-step run)."""
+    from hgo.engine.simulate import SolverSettings, simulate
+
+    system, noise = _system_and_noise()
+    for method in ("rk4", "dopri5"):
+        solver = SolverSettings(t_end=1.0, dt_out=0.5, method=method, h_max=1e-3,
+                                max_steps=50)
+        tr = simulate(system, solver, noise)
+        assert tr.status == 5 and 0 < tr.t_stop < 0.1, (method, tr.t_stop)
+
+
+def _run_cli(args: list[str], tmp_path: Path) -> subprocess.Popen:
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    env.pop("HYDRA_FULL_ERROR", None)
+    return subprocess.Popen([sys.executable, str(ROOT / "experiments" / "run.py"), *args],
+                            cwd=tmp_path, env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+
+
+def test_ctrl_c_stops_a_long_compiled_integration_within_a_second(tmp_path):
+    """SIGINT 1 s into a 1e8-step integration: exit 130 within ~1 s, one error line, a
+    complete recording up to the stop marked interrupted in /run/status and metrics.csv."""
+    import signal
+    import time
+
+    import pandas as pd
+
+    from hgo.recording import read_recording
+
+    warm = _run_cli([*SHORT, f"hydra.run.dir={tmp_path}/warm"], tmp_path)  # compile
+    assert warm.wait(timeout=300) == 0, warm.stderr.read()
+    run_dir = tmp_path / "long"
+    proc = _run_cli(["experiment=sp_oscillation", "postprocess=none", "solver.t_end=100000",
+                     "solver.dt_out=1", "solver.h_max=0.001", "metrics.window=5",
+                     f"hydra.run.dir={run_dir}"], tmp_path)
+    for line in proc.stdout:
+        if "integrating" in line:
+            break
+    time.sleep(1.0)
+    t0 = time.perf_counter()
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    elapsed = time.perf_counter() - t0
+    assert proc.returncode == 130, err
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: ") and "interrupted" in lines[0]
+    assert elapsed < 3.0, f"stopped {elapsed:.2f} s after Ctrl-C"
+    table = pd.read_csv(run_dir / "metrics.csv")
+    assert set(table.status) == {"interrupted"}
+    t_stop = float(table.t_stop.iloc[0])
+    assert 0 < t_stop < 100000
+    rec = read_recording(run_dir / "recording.rrd")
+    assert rec["sim_time"][-1] <= t_stop and len(rec["sim_time"]) > 1
+    assert not list(run_dir.glob("*.partial"))
+
+
+# --- writes that do not finish -------------------------------------------------------
+
+
+def _interrupt_in(monkeypatch, target: str, exc: BaseException, after: int = 1) -> None:
+    """Make ``target`` (module:function) raise ``exc`` on its call number ``after + 1``."""
+    import importlib
+
+    module_name, name = target.split(":")
+    module = importlib.import_module(module_name)
+    original = getattr(module, name)
+    calls = {"n": 0}
+
+    def wrapped(*args, **kwargs):
+        calls["n"] += 1
+        if calls["n"] > after:
+            raise exc
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(module, name, wrapped)
+
+
+def test_ctrl_c_while_writing_leaves_only_a_partial_recording(tmp_path, monkeypatch):
+    """KeyboardInterrupt in the middle of the recording (where SIGINT would raise it):
+    no recording.rrd, a recording.rrd.partial that read_recording calls truncated, no
+    metrics.csv; the job ends with exit 130."""
+    import pytest
+
+    from hgo.config import compose as compose_config
+    from hgo.job import run_job
+    from hgo.recording import RecordingIncomplete, read_recording
+
+    cfg = compose_config(SHORT, tmp_path)
+    _interrupt_in(monkeypatch, "hgo.recording:_send_series", KeyboardInterrupt())
+    with pytest.raises(SystemExit) as ended:
+        run_job(cfg, tmp_path)
+    assert ended.value.code == 130
+    assert not (tmp_path / "recording.rrd").exists()
+    assert not (tmp_path / "metrics.csv").exists()
+    with pytest.raises(RecordingIncomplete, match="truncated"):
+        read_recording(tmp_path / "recording.rrd.partial")
+    with pytest.warns(RuntimeWarning, match="truncated"):
+        assert read_recording(tmp_path / "recording.rrd.partial", allow_incomplete=True)
+
+
+def test_full_disk_fails_the_job_with_one_line_and_no_complete_looking_file(
+        tmp_path, monkeypatch, capsys):
+    """An injected ENOSPC while writing metrics.csv (after the recording): exit code 1,
+    one error line, metrics.csv absent (its .partial left), recording.rrd complete."""
+    import errno
+
+    import pandas as pd
+
+    from hgo.config import compose as compose_config
+    from hgo.job import run_job
+
+    cfg = compose_config(SHORT, tmp_path)
+    full = OSError(errno.ENOSPC, "No space left on device")
+    original = pd.DataFrame.to_csv
+
+    def to_csv(self, path, *args, **kwargs):
+        original(self, path, *args, **kwargs)
+        raise full
+
+    monkeypatch.setattr(pd.DataFrame, "to_csv", to_csv)
+    assert run_job(cfg, tmp_path) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "No space left on device" in err[0]
+    assert not (tmp_path / "metrics.csv").exists()
+    assert (tmp_path / "metrics.csv.partial").exists()
+    assert (tmp_path / "recording.rrd").exists()
+
+
+KILL_WRITER = textwrap.dedent('''
+    import numpy as np, sys
+    from hgo.recording import Series, write_recording
+    n = 3_000_000
+    t = np.arange(n) * 1e-3
+    series = [Series(f"/s{k}", ["a", "b", "c"], np.random.default_rng(k).random((n, 3)))
+              for k in range(8)]
+    write_recording(sys.argv[1], t, series, recording_id="killed")
+''')
+
+
+def test_sigkill_while_writing_leaves_no_complete_looking_file(tmp_path):
+    """SIGKILL as soon as the .partial has data: no recording.rrd; the .partial is
+    refused by read_recording (unreadable or truncated)."""
+    import time
+
+    import pytest
+
+    from hgo.recording import RecordingIncomplete, read_recording
+
+    target = tmp_path / "recording.rrd"
+    partial = tmp_path / "recording.rrd.partial"
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    proc = subprocess.Popen([sys.executable, "-c", KILL_WRITER, str(target)], env=env)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and proc.poll() is None:
+        if partial.exists() and partial.stat().st_size > 1_000_000:
+            break
+        time.sleep(0.01)
+    proc.kill()
+    proc.wait()
+    assert partial.exists(), "the writer finished before it could be killed"
+    assert not target.exists()
+    with pytest.raises(RecordingIncomplete):
+        read_recording(partial)
