@@ -75,8 +75,6 @@ class SolverSettings:
             if not getattr(self, key) > 0:
                 raise ConfigError(f"solver.{key}", f"must be > 0, got {getattr(self, key)}",
                                   "(0, inf]")
-        if not self.rtol < 1:
-            raise ConfigError("solver.rtol", f"must be < 1, got {self.rtol}", "(0, 1)")
         if not 0 < self.stability_safety <= 1:
             raise ConfigError("solver.stability_safety", "the fraction of RK4's stability "
                               f"limit taken as step cap must be in (0, 1], got "
