@@ -11,6 +11,8 @@ when the application ends. ``HYDRA_FULL_ERROR=1`` restores Hydra's full tracebac
 
 from __future__ import annotations
 
+import hashlib
+import logging
 import os
 import shutil
 import sys
@@ -18,10 +20,11 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-from omegaconf import DictConfig
+from omegaconf import DictConfig, OmegaConf
 
 from hgo.errors import is_config_error, one_line
 
+log = logging.getLogger(__name__)
 EXIT_CONFIG, EXIT_FAILED, EXIT_INTERRUPTED = 2, 1, 130
 _EXIT_CODES: list[int] = []  # of the jobs of this process that did not succeed
 _HYDRA_FILES = {".hydra"}
@@ -62,18 +65,60 @@ def check_config(cfg: DictConfig) -> None:
         build(cfg)
 
 
+DONE = ".hgo_done"  # written last into a run directory: the hash of the job's config
+
+
+def config_hash(cfg: DictConfig) -> str:
+    """Hash of the composed job config (without Hydra's node and ``resume``), resolved."""
+    from hgo.runner import job_config_yaml
+
+    job = OmegaConf.create({k: cfg._get_node(k) for k in cfg if k not in ("hydra", "resume")})
+    return hashlib.sha256(job_config_yaml(job).encode()).hexdigest()
+
+
+def is_complete(cfg: DictConfig, out_dir: str | Path) -> bool:
+    """Whether ``out_dir`` holds the complete outputs of a successful run of ``cfg``: the
+    marker names this config's hash and every file the run wrote is still there."""
+    out_dir = Path(out_dir)
+    try:
+        digest, *files = (out_dir / DONE).read_text().split("\n")
+    except OSError:
+        return False
+    return digest == config_hash(cfg) and all((out_dir / f).is_file() for f in files if f)
+
+
+def mark_complete(cfg: DictConfig, out_dir: str | Path) -> None:
+    """Record that ``out_dir`` holds the complete outputs of ``cfg`` (the config's hash and
+    the files written, not Hydra's); atomic, written last."""
+    from hgo.recording import atomic_output
+
+    out_dir = Path(out_dir)
+    files = sorted(p.name for p in out_dir.iterdir() if p.is_file() and p.suffix != ".log"
+                   and not p.name.startswith("."))
+    with atomic_output(out_dir / DONE) as partial:
+        partial.write_text("\n".join([config_hash(cfg), *files]) + "\n")
+
+
 def run_job(cfg: DictConfig, out_dir: str | Path) -> int:
     """Run ``cfg`` into ``out_dir``; returns the exit code (0: ok), errors reported as one
     line (see module doc). Ctrl-C ends the process (exit 130) after the one line: a sweep
-    stops there; the interrupted job keeps its outputs (``*.partial`` if mid-write)."""
+    stops there; the interrupted job keeps its outputs (``*.partial`` if mid-write).
+
+    ``resume=true``: a job whose directory already holds the complete outputs of the same
+    composed config (:func:`is_complete`) is skipped; any other is run (again)."""
     from hgo.ensemble_runner import run_ensemble
     from hgo.runner import SimulationFailed, run
 
+    if cfg.get("resume", False) and is_complete(cfg, out_dir):
+        log.info("resume: %s already holds this job's complete outputs; skipped", out_dir)
+        return 0
     try:
+        (Path(out_dir) / DONE).unlink(missing_ok=True)
         if cfg.ensemble.size != 0:
             run_ensemble(cfg, out_dir)
         else:
             run(cfg, out_dir)
+        mark_complete(cfg, out_dir)
     except KeyboardInterrupt as err:
         if full_error():
             raise

@@ -6,7 +6,8 @@ the limsups of Sanfelice & Praly (11)-(12):
     mean_sq_error_<x_i>  = (1/T) int_{t_end-T}^{t_end} |x^_i - x_i|^2 dt
     mean_sq_output_error = (1/T) int_{t_end-T}^{t_end} (y^ - y)^2 dt   (y measured, noisy)
 
-computed by the kernel with the trapezoid rule on the output grid.
+computed by the kernel with the trapezoid rule over every integration step and output
+instant inside the window (so they do not depend on the output grid).
 """
 
 from __future__ import annotations
@@ -49,6 +50,13 @@ def window_means(system: System, acc: np.ndarray) -> dict[tuple[str, str], float
             value = acc[system.nxh + k] / T if T > 0 else math.nan
             means[(obs.name, "mean_sq_output_error")] = value
     return means
+
+
+def window_max_error(system: System, acc: np.ndarray) -> dict[str, float]:
+    """Observer -> max over the window of ||x^ - x|| (its estimated states), from the
+    kernel's accumulators (taken at every integration step and output instant)."""
+    n = len(system.observers)
+    return {o.name: float(acc[system.nxh + n + k]) for k, o in enumerate(system.observers)}
 
 
 def metrics_table(system: System, acc: np.ndarray, status: int, t_stop: float,

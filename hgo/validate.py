@@ -2,8 +2,8 @@
 
 * :func:`check_values`: every numeric value of the config is a number (no NaN), finite
   unless its key means "no limit" when infinite (``INF_ALLOWED``), and the top-level keys
-  have their types (``seed`` a non-negative int, ``run_name`` a plain name,
-  ``ensemble.size`` >= 0).
+  have their types (``seed`` a non-negative int, ``run_name`` a plain name, ``resume`` a
+  bool, ``ensemble.size`` >= 0).
 * :func:`check_cost`: the output rows, noise samples and integration steps of the run,
   estimated up front, stay under ``solver.max_output_rows`` / ``solver.max_steps`` and
   the machine's free memory; the message gives the estimate and the keys to change.
@@ -75,6 +75,8 @@ def check_top(container: Mapping) -> None:
     if not isinstance(name, str) or not _RUN_NAME.match(name):
         raise ConfigError("run_name", f"must be a plain name, got {name!r}",
                           "letters, digits and _ . + = , -")
+    if not isinstance(container.get("resume", False), bool):
+        raise ConfigError("resume", f"must be true or false, got {container['resume']!r}")
     ens = container.get("ensemble") or {}
     _check_int("ensemble.size", ens.get("size", 0))
     _check_int("ensemble.seed", ens.get("seed", 0))

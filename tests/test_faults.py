@@ -261,3 +261,42 @@ def test_sigkill_while_writing_leaves_no_complete_looking_file(tmp_path):
     assert not target.exists()
     with pytest.raises(RecordingIncomplete):
         read_recording(partial)
+
+
+# --- resume --------------------------------------------------------------------------
+
+
+def test_resume_skips_complete_jobs_and_redoes_the_others(tmp_path):
+    """``resume=true`` skips a job whose directory holds complete outputs of the same
+    composed config; a changed config, a missing file or a failed run is redone."""
+    from hgo.config import compose as compose_config
+    from hgo.job import DONE, is_complete, run_job
+
+    cfg = compose_config([*SHORT, "resume=true"], tmp_path)
+    assert run_job(cfg, tmp_path) == 0 and is_complete(cfg, tmp_path)
+    stamp = (tmp_path / "metrics.csv").stat().st_mtime_ns
+    assert run_job(cfg, tmp_path) == 0
+    assert (tmp_path / "metrics.csv").stat().st_mtime_ns == stamp  # skipped
+    other = compose_config([*SHORT, "resume=true", "seed=1"], tmp_path)
+    assert not is_complete(other, tmp_path)  # another composed config: redone
+    (tmp_path / DONE).unlink()  # e.g. killed before the end: redone
+    assert run_job(cfg, tmp_path) == 0
+    assert (tmp_path / "metrics.csv").stat().st_mtime_ns != stamp
+    assert is_complete(cfg, tmp_path)
+
+
+def test_multirun_resumed_into_its_sweep_directory(tmp_path):
+    """A 2-job sweep, one job's outputs removed: re-run with resume=true into the same
+    hydra.sweep.dir, only that job runs again."""
+    sweep = tmp_path / "sweep"
+    args = ["-m", *SHORT, "seed=0,1", f"hydra.sweep.dir={sweep}", "resume=true"]
+    first = _run_cli(args, tmp_path)
+    assert first.wait(timeout=300) == 0, first.stderr.read()
+    kept = (sweep / "job0" / "metrics.csv").stat().st_mtime_ns
+    (sweep / "job1" / "metrics.csv").unlink()
+    again = _run_cli(args, tmp_path)
+    out, err = again.communicate(timeout=300)
+    assert again.returncode == 0, err
+    assert (sweep / "job0" / "metrics.csv").stat().st_mtime_ns == kept
+    assert (sweep / "job1" / "metrics.csv").exists()
+    assert out.count("skipped") + err.count("skipped") == 1

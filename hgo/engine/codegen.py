@@ -120,6 +120,7 @@ def _header(system: System, names: dict) -> str:
         f"NW = {ny + nu + n_xc}",
         f"EST_MAP = np.array({system.estimate_map().tolist()}, dtype=np.int64)",
         f"YHAT_COL = np.array({system.yhat_columns().tolist()}, dtype=np.int64)",
+        f"OBS_OF = np.array({system.xh_observer().tolist()}, dtype=np.int64)",
         "",
         "",
         "@ijit",

@@ -50,9 +50,9 @@ def _state_status(z, bound):
     return 0
 
 
-# Length of the work vector the integrators share: w, y, u, xh, sq, prev, win, m
+# Length of the work vector the integrators share: w, y, u, xh, sq, prev, win (2), m
 # (a global int: a constant for numba, not one more function to compile).
-N_COMMON_WORK = NW + NY + NU + NXH + 2 * (NXH + NOBS) + 1 + NY
+N_COMMON_WORK = NW + NY + NU + NXH + 2 * (NXH + NOBS) + 2 + NY
 
 
 @ijit
@@ -66,8 +66,8 @@ def _common_views(work, o):
     o += NW + NY + NU + NXH
     sq = view(work, o, o + NXH + NOBS)
     prev = view(work, o + NXH + NOBS, o + 2 * (NXH + NOBS))
-    win = view(work, o + 2 * (NXH + NOBS), o + 2 * (NXH + NOBS) + 1)
-    m = view(work, o + 2 * (NXH + NOBS) + 1, o + 2 * (NXH + NOBS) + 1 + NY)
+    win = view(work, o + 2 * (NXH + NOBS), o + 2 * (NXH + NOBS) + 2)
+    m = view(work, o + 2 * (NXH + NOBS) + 2, o + 2 * (NXH + NOBS) + 2 + NY)
     return w, y, u, xh, sq, prev, win, m
 
 
@@ -96,12 +96,7 @@ def _start(z, d, m, P, w, y, u, xh, sq, prev, acc, win, noise, bound, t_end, dt_
 @ijit
 def _emit(k, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0, tol,
           Z, D, Y, M, U, XH):
-    """Output sample k at time t: record it, and add it to the trailing-window integrals.
-
-    The integrals are trapezoids of squared errors over [t_end - t_window, t_end]
-    (Sanfelice & Praly (11)-(12)); ``win[0]`` tells whether a previous sample is in the
-    window. ``acc[-1]`` accumulates the window length actually integrated.
-    """
+    """Output sample k at time t: record it, and add it to the trailing-window metrics."""
     system_outputs(t, z, d, m, P, w, y, u, xh)
     if Z.shape[0] > 0:
         for i in range(NZ):
@@ -116,18 +111,48 @@ def _emit(k, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0, tol
         for i in range(NXH):
             XH[k, i] = xh[i]
     if t >= t_win0 - tol:
+        _accumulate(t, z, y, xh, sq, prev, acc, win)
+
+
+@ijit
+def _step_end(t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, t_win0, tol):
+    """A step ends at t: add the point to the window metrics (inside the window only)."""
+    if t >= t_win0 - tol:
+        system_outputs(t, z, d, m, P, w, y, u, xh)
+        _accumulate(t, z, y, xh, sq, prev, acc, win)
+
+
+@ijit
+def _accumulate(t, z, y, xh, sq, prev, acc, win):
+    """Add the point t to the trailing-window metrics (Sanfelice & Praly (11)-(12)).
+
+    Called at every step end and every output instant inside [t_end - t_window, t_end],
+    in time order: trapezoids of the squared errors between consecutive points
+    (``acc[:NXH + NOBS]``), the largest error norm ||x^ - x|| of each observer
+    (``acc[NXH + NOBS:NXH + 2 NOBS]``) and the window length (``acc[-1]``). The points are
+    the integration steps, so the metrics do not depend on the output grid. ``win[0]``
+    tells whether a previous point exists, ``win[1]`` is its time.
+    """
+    for j in range(NXH):
+        sq[j] = (xh[j] - z[EST_MAP[j]]) ** 2 if EST_MAP[j] >= 0 else 0.0
+    for k2 in range(NOBS):
+        c = YHAT_COL[k2]
+        sq[NXH + k2] = (xh[c] - y[0]) ** 2 if c >= 0 else 0.0
+    for k2 in range(NOBS):
+        norm2 = 0.0
         for j in range(NXH):
-            sq[j] = (xh[j] - z[EST_MAP[j]]) ** 2 if EST_MAP[j] >= 0 else 0.0
-        for k2 in range(NOBS):
-            c = YHAT_COL[k2]
-            sq[NXH + k2] = (xh[c] - y[0]) ** 2 if c >= 0 else 0.0
-        if win[0] > 0.0:
-            for j in range(NXH + NOBS):
-                acc[j] += 0.5 * dt_out * (sq[j] + prev[j])
-            acc[NXH + NOBS] += dt_out
+            if OBS_OF[j] == k2:
+                norm2 += sq[j]
+        acc[NXH + NOBS + k2] = max(acc[NXH + NOBS + k2], math.sqrt(norm2))
+    if win[0] > 0.0:
+        dt = t - win[1]
         for j in range(NXH + NOBS):
-            prev[j] = sq[j]
-        win[0] = 1.0
+            acc[j] += 0.5 * dt * (sq[j] + prev[j])
+        acc[NXH + 2 * NOBS] += dt
+    for j in range(NXH + NOBS):
+        prev[j] = sq[j]
+    win[0] = 1.0
+    win[1] = t
 
 
 @pjit
@@ -217,6 +242,7 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
                 status = _state_status(z, bound)
                 if status != 0:
                     return status, k_out, t
+                _step_end(t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, t_win0, tol)
                 n_steps += 1
                 if n_steps > max_steps:
                     return 5, k_out, t
@@ -356,6 +382,7 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
             status = _state_status(z, bound)
             if status != 0:
                 return status, k_out, t
+            _step_end(t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, t_win0, tol)
             fac = 10.0 if err == 0.0 else min(10.0, max(0.2, 0.9 * err ** ERR_EXP))
             if retried:  # as scipy: no growth right after a rejection (B: 4 % fewer trials)
                 fac = min(1.0, fac)

@@ -139,7 +139,7 @@ class Trajectory:
     xh: np.ndarray
     status: int
     t_stop: float
-    acc: np.ndarray  # window integrals of squared errors, then the window length
+    acc: np.ndarray  # window metrics (System.n_acc): integrals, max norms, window length
 
     @property
     def ok(self) -> bool:
@@ -280,7 +280,7 @@ def simulate(system: System, solver: SolverSettings, noise: Noise,
     d = system.d0()
     P = system.params() if params is None else np.asarray(params, float)
     rec = [np.zeros((n_out, k)) for k in (system.nz, system.nd, ny, ny, nu, system.nxh)]
-    acc = np.zeros(system.nxh + len(system.observers) + 1)
+    acc = np.zeros(system.n_acc())
     status, n_rec, t_stop = _call(
         system, solver.method, "integrate", z, d, P,
         np.ascontiguousarray(noise.samples, float), *args, *rec, acc, _control(solver))
@@ -315,7 +315,7 @@ def simulate_ensemble(system: System, solver: SolverSettings, noise: list[Noise]
     d0 = np.tile(system.d0(), (n, 1)) if d0 is None else np.ascontiguousarray(d0, float)
     if d0.shape != (n, system.nd):
         raise ValueError(f"d0 must have shape ({n}, {system.nd}), got {d0.shape}")
-    acc = np.zeros((n, system.nxh + len(system.observers) + 1))
+    acc = np.zeros((n, system.n_acc()))
     status = np.zeros(n, dtype=np.int64)
     t_stop = np.zeros(n)
     args = _common_args(system, solver, members[0])

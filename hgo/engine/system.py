@@ -126,6 +126,17 @@ class System:
         """Plant state index estimated by each column of xh."""
         return np.array([i for o in self.observers for i in o.estimated_states], dtype=np.int64)
 
+    def xh_observer(self) -> np.ndarray:
+        """Index of the observer of each column of xh."""
+        return np.array([k for k, (a, b) in enumerate(self.xh_slices) for _ in range(a, b)],
+                        dtype=np.int64)
+
+    def n_acc(self) -> int:
+        """Length of the kernel's window-metric vector: squared-error integrals (xh columns,
+        then one output error per observer), the max error norm per observer, the window
+        length."""
+        return self.nxh + 2 * len(self.observers) + 1
+
     def yhat_columns(self) -> np.ndarray:
         """Column of xh holding each observer's estimate of the measured state (or -1)."""
         cols = []
