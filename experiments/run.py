@@ -1,7 +1,8 @@
 """Hydra entry point: ``python experiments/run.py experiment=sp_fig1`` (add ``-m`` to sweep);
-the same as ``hgo run experiment=sp_fig1`` (see :mod:`hgo.app`)."""
+the same as ``hgo run experiment=sp_fig1`` (see :mod:`hgo.app`; errors are one line, see
+:mod:`hgo.job`)."""
 
-from hgo.app import main
+from hgo.app import cli_main
 
 if __name__ == "__main__":
-    main()
+    cli_main()

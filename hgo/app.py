@@ -10,10 +10,9 @@ prints one line per job.
 
 from __future__ import annotations
 
+import json
 import logging
-import math
 import sys
-from datetime import datetime
 from pathlib import Path
 
 import hydra
@@ -24,7 +23,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from hgo.config import conf_dir, register_configs
 from hgo.console import job_line
-from hgo.runs import write_run_json
+from hgo.job import EXIT_CONFIG, is_complete, one_line_errors, run_job
 
 register_configs()
 OUTPUTS = Path("outputs")
@@ -73,47 +72,40 @@ def _point_latest(out_dir: Path) -> None:
     tmp.replace(link)
 
 
-def _status(table: pd.DataFrame | None, error: BaseException | None) -> str:
-    if error is not None and (table is None or (table.status == "ok").all()):
-        return f"error: {error}"
-    if table is not None and (table.status != "ok").any():
-        return f"failed: {table.message.iloc[0]}"
-    return "ok"
+def _run_status(out_dir: Path, code: int) -> tuple[str, pd.DataFrame | None]:
+    """The job's status (from its ``run.json``) and metrics table, when it wrote them."""
+    info, metrics = out_dir / "run.json", out_dir / "metrics.csv"
+    table = pd.read_csv(metrics) if metrics.exists() else None
+    if info.exists():
+        return json.loads(info.read_text())["status"], table
+    return ("configuration error" if code == EXIT_CONFIG else f"error (exit {code})"), table
 
 
 @hydra.main(version_base="1.3", config_path=str(conf_dir()), config_name="config")
 def main(cfg: DictConfig) -> None:
-    from hgo.runner import run
-
     hc = HydraConfig.get()
     out_dir = Path(hc.runtime.output_dir)
     multirun = hc.mode == RunMode.MULTIRUN
     if multirun:  # one line per job on the console; the table is in metrics.csv
         logging.getLogger("hgo").setLevel(logging.WARNING)
-    started, result, error = datetime.now(), None, None
-    try:
-        if cfg.ensemble.size > 0:
-            from hgo.ensemble_runner import run_ensemble
+    skipped = bool(cfg.get("resume", False)) and is_complete(cfg, out_dir)
+    code = run_job(cfg, out_dir)
+    if not out_dir.exists():  # a configuration error: the one line is already out
+        return
+    _point_latest(out_dir)
+    status, table = _run_status(out_dir, code)
+    if skipped:
+        status = "skipped (resume: the directory holds this config's complete outputs)"
+    if multirun:
+        params = hc.sweeper.get("params")
+        n = sweep_size(sys.argv[1:], OmegaConf.to_container(params) if params else {})
+        print(job_line(hc.job.num + 1, n, list(hc.overrides.task), status,
+                       _key_metric(table)) + f"  ({out_dir})", flush=True)
+    else:
+        print(f"{status}: outputs in {out_dir}", flush=True)
 
-            result = run_ensemble(cfg, out_dir)
-        else:
-            result = run(cfg, out_dir)
-    except Exception as err:
-        error = err
-        raise
-    finally:
-        metrics = out_dir / "metrics.csv"
-        table = pd.read_csv(metrics) if metrics.exists() else None
-        status = _status(table, error)
-        timings = getattr(result, "timings", {})
-        write_run_json(out_dir, OmegaConf.to_container(cfg, resolve=True), status, started,
-                       timings, table)
-        _point_latest(out_dir)
-        if multirun:
-            n = sweep_size(sys.argv[1:], OmegaConf.to_container(hc.sweeper.params or {}))
-            print(job_line(hc.job.num + 1, n, list(hc.overrides.task), status,
-                           _key_metric(table)) + f"  ({out_dir})", flush=True)
-        else:
-            print(f"{status}: outputs in {out_dir}" + (
-                f" (simulated in {timings['simulate']:.3g} s)" if timings and
-                math.isfinite(timings.get("simulate", math.nan)) else ""), flush=True)
+
+def cli_main() -> None:
+    """The application with errors as one line and the jobs' worst exit code."""
+    with one_line_errors():
+        main()

@@ -10,10 +10,10 @@ import sys
 
 
 def _run(args: list[str]) -> int:
-    from hgo.app import main
+    from hgo.app import cli_main
 
     sys.argv = ["hgo run", *args]
-    main()
+    cli_main()
     return 0
 
 

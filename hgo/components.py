@@ -18,6 +18,10 @@ Function signatures (arrays are float64, outputs are written in place):
   of the active dynamics (bounds the RK4 step; default: the constant ``spectral_radius``).
 * Controller ``u(t, xhat, y, p, u)`` — input computed from one observer's estimate.
 
+Indices a component reads (``reads_outputs``, ``reads_inputs``, ``reads_estimate``) are
+declared, and :class:`hgo.engine.system.System` checks them against the plant when it is
+composed: compiled code has no bounds checks.
+
 Why discrete updates between steps: hybrid logic (noise samples, gain switches,
 timers, saturations) then never makes a step straddle a discontinuity, and the
 vector fields stay smooth and compilable.
@@ -83,6 +87,10 @@ class Observer:
     # theoretical bounds on metrics, quantity -> value (e.g. Sanfelice & Praly (11):
     # {"mean_sq_output_error": p2}); a missing quantity has no bound from the papers
     bounds: dict[str, float] = field(default_factory=dict)
+    # measured channels y[i] and plant inputs u[j] that f / update read: checked against
+    # the plant when the system is composed (compiled code never reads past an array)
+    reads_outputs: list[int] = field(default_factory=lambda: [0])
+    reads_inputs: list[int] = field(default_factory=list)
 
     @property
     def nz(self) -> int:
@@ -97,3 +105,8 @@ class Controller:
     p: np.ndarray
     u: object
     observer: str | None = None
+    # measured channels y[i] and entries xhat[j] of its observer's estimate that ``u`` reads
+    # (checked against the plant and the observer when the system is composed); ``u``
+    # writes the plant's inputs, so the plant must have at least one
+    reads_outputs: list[int] = field(default_factory=list)
+    reads_estimate: list[int] = field(default_factory=list)

@@ -41,7 +41,7 @@ class TriangularHGOConf:
     p1: float = 4 / 3
     p2: float = 0.008
     b: float = 0.28
-    M: list[list[float]] | None = None
+    M: list[Any] | None = None  # rows of numbers (ints accepted; checked by the builder)
     c: list[float] | None = None
 
 
@@ -69,6 +69,8 @@ class SolverConf:
     atol: float = 1e-10
     state_bound: float = 1e6
     stability_safety: float = 0.9
+    max_steps: int = 1_000_000_000  # a run stops (failed) after this many steps
+    max_output_rows: int = 100_000_000  # larger output grids are refused before the run
 
 
 @dataclass

@@ -17,6 +17,7 @@ import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
 from hgo.engine.system import System
+from hgo.errors import as_floats
 
 
 def _layout(system: System) -> tuple:
@@ -74,7 +75,7 @@ def draw_members(vary: Mapping[str, Any], size: int, seed: int) -> dict[str, np.
     rng = np.random.default_rng(seed)
     draws = {}
     for key, spec in vary.items():
-        bounds = np.asarray(spec, dtype=float)
+        bounds = as_floats(f"ensemble.vary.{key}", spec)
         if bounds.shape == (2,):
             low, high = bounds
         elif bounds.ndim == 2 and bounds.shape[1] == 2:

@@ -27,23 +27,28 @@ import numpy as np
 import pandas as pd
 from omegaconf import DictConfig
 
-from hgo.engine.simulate import STATUS, simulate, simulate_ensemble
+from hgo.engine.simulate import INTERRUPTED, STATUS, simulate, simulate_ensemble
 from hgo.engine.system import System
 from hgo.ensemble import draw_members, member_nodes, stack_members, stiffest_envelope
+from hgo.errors import ConfigError
 from hgo.figures.ensemble import metric_histograms
-from hgo.metrics import metric_row, window_means
+from hgo.metrics import metric_row, status_word, window_means
 from hgo.noise import NoiseModel
 from hgo.progress import bar
-from hgo.recording import write_recording
+from hgo.recording import atomic_output, write_recording
 from hgo.runner import (
+    RunInterrupted,
     _instantiate,
     blueprint,
     build_system,
+    check_cost,
     job_config_yaml,
     recording_id,
     signals,
     solver_settings,
+    status_text,
 )
+from hgo.validate import check_values
 
 log = logging.getLogger(__name__)
 CHUNKS = 10  # progress is reported after each tenth of the members
@@ -83,7 +88,7 @@ def _member_rows(systems, draws, out) -> list[dict]:
             value = float(value) if st == 0 else np.nan
             rows.append({"member": str(i),
                          **metric_row(obs, quantity, value, bounds[obs].get(quantity)),
-                         "status": "ok" if st == 0 else "failed",
+                         "status": status_word(st),
                          "t_stop": float(out["t_stop"][i]), "message": STATUS[st], **drawn})
     return rows
 
@@ -105,29 +110,58 @@ def _aggregate(members: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def run_ensemble(cfg: DictConfig, out_dir: str | Path) -> EnsembleResult:
-    """Draw, build, integrate and tabulate ``cfg.ensemble.size`` members."""
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+@dataclass
+class EnsemblePlan:
+    """An ensemble built and checked, not yet integrated."""
+
+    systems: list[System]
+    draws: dict[str, np.ndarray]
+    solver: object
+    noise: list
+    params: np.ndarray
+    z0: np.ndarray
+    d0: np.ndarray
+
+
+def prepare_ensemble(cfg: DictConfig) -> EnsemblePlan:
+    """Check the config, draw and build every member and sample its noise (no integration)."""
+    check_values(cfg)
     size, seed = int(cfg.ensemble.size), int(cfg.seed)
-    skipped = [k for k in ("postprocess", "figures") if cfg.get(k)]
-    if skipped:
-        log.warning("ensemble: %s not applied (members keep metrics, not trajectories)",
-                    " and ".join(skipped))
+    if size < 1:
+        raise ConfigError("ensemble.size", f"must be >= 1 for an ensemble, got {size}",
+                          "0 for a single run, or >= 1")
     solver = solver_settings(cfg)
     noise_model = _instantiate(cfg.noise, "noise", NoiseModel)
     draws = draw_members(cfg.ensemble.vary, size, int(cfg.ensemble.seed))
     systems = [build_system(nodes) for nodes in member_nodes(cfg, draws)] if draws else \
         [build_system(cfg)] * size
-    params, z0, d0 = stack_members(systems)
     ny = len(systems[0].plant.output_names)
+    noise_model.check_channels(ny)
+    check_cost(stiffest_envelope(systems), solver, noise_model)
+    params, z0, d0 = stack_members(systems)
     noise = [noise_model.sample(solver.t_end, ny, seed + i) for i in range(size)]
-    out = _simulate_chunks(stiffest_envelope(systems), solver, noise, params, z0, d0)
+    return EnsemblePlan(systems, draws, solver, noise, params, z0, d0)
+
+
+def run_ensemble(cfg: DictConfig, out_dir: str | Path) -> EnsembleResult:
+    """Draw, build, integrate and tabulate ``cfg.ensemble.size`` members."""
+    out_dir = Path(out_dir)
+    skipped = [k for k in ("postprocess", "figures") if cfg.get(k)]
+    if skipped:
+        log.warning("ensemble: %s not applied (members keep metrics, not trajectories)",
+                    " and ".join(skipped))
+    plan = prepare_ensemble(cfg)
+    size, systems, draws, solver, noise = (len(plan.systems), plan.systems, plan.draws,
+                                           plan.solver, plan.noise)
+    params, z0 = plan.params, plan.z0
+    out_dir.mkdir(parents=True, exist_ok=True)
+    out = _simulate_chunks(stiffest_envelope(systems), solver, noise, params, z0, plan.d0)
 
     members = pd.DataFrame(_member_rows(systems, draws, out))
     table = pd.concat([members, _aggregate(members)], ignore_index=True)
     table.insert(0, "run", cfg.get("run_name", "run"))
-    table.to_csv(out_dir / "metrics.csv", index=False)
+    with atomic_output(out_dir / "metrics.csv") as partial:
+        table.to_csv(partial, index=False)
     log.info("ensemble metrics (aggregate):\n%s",
              table[table.member == "all"].dropna(axis=1, how="all").to_string(index=False))
 
@@ -136,10 +170,13 @@ def run_ensemble(cfg: DictConfig, out_dir: str | Path) -> EnsembleResult:
     write_recording(out_dir / "recording.rrd", first.t, series,
                     recording_id=recording_id(out_dir),
                     blueprint=blueprint(systems[0], series),
-                    text={"/run/status": f"ensemble of {size}; this recording: member 0",
+                    text={"/run/status": f"ensemble of {size}; this recording: member 0, "
+                                         + status_text(first),
                           "/run/config": job_config_yaml(cfg)})
     metric_histograms(members, out_dir / "ensemble.png")
     n_failed = int((out["status"] != 0).sum())
     if n_failed:
         log.warning("ensemble: %d of %d members stopped early (see metrics.csv)", n_failed, size)
+    if (out["status"] == INTERRUPTED).any() or first.status == INTERRUPTED:
+        raise RunInterrupted(f"ensemble interrupted (outputs up to then are in {out_dir})")
     return EnsembleResult(systems, draws, out["acc"], out["status"], out["t_stop"], table)

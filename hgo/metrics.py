@@ -6,7 +6,8 @@ the limsups of Sanfelice & Praly (11)-(12):
     mean_sq_error_<x_i>  = (1/T) int_{t_end-T}^{t_end} |x^_i - x_i|^2 dt
     mean_sq_output_error = (1/T) int_{t_end-T}^{t_end} (y^ - y)^2 dt   (y measured, noisy)
 
-computed by the kernel with the trapezoid rule on the output grid.
+computed by the kernel with the trapezoid rule over every integration step and output
+instant inside the window (so they do not depend on the output grid).
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ import math
 import numpy as np
 import pandas as pd
 
-from hgo.engine.simulate import STATUS
+from hgo.engine.simulate import INTERRUPTED, STATUS
 from hgo.engine.system import System
 
 COLUMNS = ["observer", "postprocess", "quantity", "empirical", "bound", "ratio", "holds",
@@ -24,6 +25,11 @@ COLUMNS = ["observer", "postprocess", "quantity", "empirical", "bound", "ratio",
 # a bound larger than the measured value by more than this factor says nothing about it:
 # shown as ``vacuous`` rather than ✓ (``metrics.vacuous_factor``)
 VACUOUS_FACTOR = 1e6
+
+
+def status_word(status: int) -> str:
+    """``ok``, ``interrupted`` (Ctrl-C) or ``failed`` (any other early stop)."""
+    return "ok" if status == 0 else "interrupted" if status == INTERRUPTED else "failed"
 
 
 def verdict(value: float, bound: float, vacuous_factor: float = VACUOUS_FACTOR) -> str:
@@ -61,6 +67,13 @@ def window_means(system: System, acc: np.ndarray) -> dict[tuple[str, str], float
     return means
 
 
+def window_max_error(system: System, acc: np.ndarray) -> dict[str, float]:
+    """Observer -> max over the window of ||x^ - x|| (its estimated states), from the
+    kernel's accumulators (taken at every integration step and output instant)."""
+    n = len(system.observers)
+    return {o.name: float(acc[system.nxh + n + k]) for k, o in enumerate(system.observers)}
+
+
 def metrics_table(system: System, acc: np.ndarray, status: int, t_stop: float,
                   extra_bounds: dict[tuple[str, str], float] | None = None,
                   extra_rows: list[dict] | None = None,
@@ -87,7 +100,7 @@ def metrics_table(system: System, acc: np.ndarray, status: int, t_stop: float,
         rows.append({**extra, **row})
     table = pd.DataFrame(rows)
     table["window"] = float(f"{acc[-1]:.12g}")  # a sum of steps: no round-off digits
-    table["status"] = "ok" if status == 0 else "failed"
+    table["status"] = status_word(status)
     table["t_stop"] = float(t_stop)
     table["message"] = STATUS[status]
     return table[COLUMNS + [c for c in table.columns if c not in COLUMNS]]

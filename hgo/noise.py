@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from hgo.engine.simulate import Noise
+from hgo.errors import ConfigError
 
 
 @dataclass(frozen=True)
@@ -32,11 +33,31 @@ class NoiseModel:
 
     def __post_init__(self) -> None:
         if self.kind not in self.KINDS:
-            raise ValueError(f"noise.kind: '{self.kind}' not in {list(self.KINDS)}")
+            raise ConfigError("noise.kind", f"'{self.kind}' is not a noise kind",
+                              ", ".join(self.KINDS))
+        for key in ("amplitude", "std", "period"):
+            value = getattr(self, key)
+            if not (math.isfinite(value) and value >= 0):
+                raise ConfigError(f"noise.{key}", f"must be >= 0 and finite, got {value}")
         if self.kind != "none" and not self.period > 0:
-            raise ValueError(f"noise.period must be > 0 (seconds), got {self.period}")
-        if self.amplitude < 0 or self.std < 0:
-            raise ValueError("noise.amplitude and noise.std must be >= 0")
+            raise ConfigError("noise.period", f"must be > 0 (seconds), got {self.period}")
+        used = {"none": (), "uniform": ("amplitude",), "gaussian": ("std",)}[self.kind]
+        for key in ("amplitude", "std"):  # a value the chosen kind ignores is a mistake
+            if key not in used and getattr(self, key) != 0:
+                raise ConfigError(f"noise.{key}", f"is ignored by noise.kind={self.kind}, "
+                                  f"got {getattr(self, key)}", "0, or noise.kind="
+                                  + ("uniform" if key == "amplitude" else "gaussian"))
+        if not self.channels:
+            raise ConfigError("noise.channels", "is empty", "a list of output channels")
+        if len(set(self.channels)) != len(self.channels):
+            raise ConfigError("noise.channels", f"lists a channel twice: {list(self.channels)}")
+
+    def check_channels(self, n_outputs: int) -> None:
+        """Every noisy channel is an output of the plant (before any sample is drawn)."""
+        for ch in self.channels:
+            if not 0 <= ch < n_outputs:
+                raise ConfigError("noise.channels", f"{ch} is not a channel of a plant with "
+                                  f"{n_outputs} outputs", f"0..{n_outputs - 1}")
 
     @property
     def bound(self) -> float:
@@ -47,10 +68,7 @@ class NoiseModel:
 
     def sample(self, t_end: float, n_outputs: int, seed: int) -> Noise:
         """Draw the held samples covering [0, t_end] for ``n_outputs`` measured channels."""
-        for ch in self.channels:
-            if not 0 <= ch < n_outputs:
-                raise ValueError(f"noise.channels: {ch} is not a channel of a plant with "
-                                 f"{n_outputs} outputs (0..{n_outputs - 1})")
+        self.check_channels(n_outputs)
         if self.kind == "none":
             return Noise(np.zeros((1, n_outputs)), math.inf)
         n = int(math.ceil(t_end / self.period)) + 1
@@ -67,4 +85,9 @@ class NoiseModel:
 def noise_model(kind: str = "none", amplitude: float = 0.0, std: float = 0.0,
                 period: float = 0.01, channels: Sequence[int] = (0,)) -> NoiseModel:
     """Factory used by the ``noise`` config group."""
+    for key, value in (("amplitude", amplitude), ("std", std), ("period", period)):
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ConfigError(f"noise.{key}", f"must be a number, got {value!r}")
+    if any(isinstance(c, bool) or not isinstance(c, int) for c in channels):
+        raise ConfigError("noise.channels", f"must be integers, got {list(channels)}")
     return NoiseModel(kind, float(amplitude), float(std), float(period), tuple(channels))

@@ -23,16 +23,21 @@ Notes
 * With ``RERUN=off`` in the environment Rerun disables every stream:
   :func:`write_recording` then writes no file (an existing file at ``path`` is left
   untouched) and only emits a :class:`RuntimeWarning`.
-* The ``.rrd`` file is complete only once the stream is closed;
-  :func:`write_recording` closes it before returning.
+* The ``.rrd`` file is complete only once the stream is closed:
+  :func:`write_recording` writes ``<name>.partial``, logs the marker ``/run/complete``
+  last, closes the stream and only then renames the file to ``<name>``. An interrupted
+  or failed write (Ctrl-C, SIGKILL, a full disk) leaves only the ``.partial``, and
+  :func:`read_recording` refuses a file without the marker.
 * Reading back needs ``rerun-sdk[catalog]`` (``rerun.chunk.RrdReader``).
 """
 
 from __future__ import annotations
 
+import os
 import re
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -50,6 +55,8 @@ __all__ = [
 ]
 
 TIMELINE = "sim_time"
+#: Static entity logged last: a recording without it did not finish writing.
+COMPLETE = "/run/complete"
 """Name of the Rerun timeline holding simulated time."""
 
 PALETTE: tuple[tuple[int, int, int], ...] = (
@@ -254,13 +261,35 @@ def write_recording(
             )
             return path
         path.parent.mkdir(parents=True, exist_ok=True)
-        rec.save(path, default_blueprint=blueprint)
+        partial = partial_path(path)
+        rec.save(partial, default_blueprint=blueprint)
         blocks = _time_blocks(time)
         for s, values in checked:
             _send_series(rec, s, values, blocks)
         for entity, doc in (text or {}).items():
             rec.log(entity, rr.TextDocument(doc), static=True)
+        rec.log(COMPLETE, rr.TextDocument(f"{len(time)} samples"), static=True)
+    os.replace(partial, path)  # only a complete file gets the final name
     return path
+
+
+def partial_path(path: Path) -> Path:
+    """Where a file is written before it is complete: ``<name>.partial``."""
+    return path.with_name(path.name + ".partial")
+
+
+@contextmanager
+def atomic_output(path: str | Path) -> Iterator[Path]:
+    """Write to ``<path>.partial`` inside the block; renamed to ``path`` when it ends
+    without an error (an interrupted or failed write leaves only the ``.partial``)."""
+    path = Path(path)
+    partial = partial_path(path)
+    yield partial
+    os.replace(partial, path)
+
+
+class RecordingIncomplete(ValueError):
+    """A recording whose writing did not finish (truncated, ``.partial``, unreadable)."""
 
 
 def _is_plain(expr: str) -> bool:
@@ -352,8 +381,12 @@ def _column_values(column: object, n: int) -> np.ndarray:
     return out
 
 
-def read_recording(path: str | Path) -> dict[str, np.ndarray]:
+def read_recording(path: str | Path, allow_incomplete: bool = False) -> dict[str, np.ndarray]:
     """Read the scalar series of a recording written by :func:`write_recording`.
+
+    A file whose writing did not finish (no ``/run/complete`` marker: interrupted,
+    killed, a full disk) raises :class:`RecordingIncomplete`; with ``allow_incomplete``
+    what it holds is returned, with a warning.
 
     Parameters
     ----------
@@ -370,7 +403,18 @@ def read_recording(path: str | Path) -> dict[str, np.ndarray]:
     """
     from rerun.chunk import RrdReader
 
-    store = RrdReader(Path(path)).stream().collect()
+    try:
+        store = RrdReader(Path(path)).stream().collect()
+    except Exception as err:  # noqa: BLE001 - rerun's errors for a damaged file vary
+        raise RecordingIncomplete(f"recording {path} is unreadable (incomplete write?): "
+                                  f"{' '.join(str(err).split())[:200]}") from err
+    if COMPLETE not in store.schema().entity_paths():
+        if not allow_incomplete:
+            raise RecordingIncomplete(f"recording {path} is truncated: its writing did not "
+                                      f"finish (no {COMPLETE} marker); pass "
+                                      "allow_incomplete=True to read what it holds")
+        warnings.warn(f"recording {path} is truncated (no {COMPLETE} marker)",
+                      RuntimeWarning, stacklevel=2)
     if TIMELINE not in [c.name for c in store.schema().index_columns()]:
         return {TIMELINE: np.empty(0)}  # a run with no samples has no timeline at all
     table = store.reader(index=TIMELINE).to_arrow_table()

@@ -10,6 +10,7 @@
 from __future__ import annotations
 
 import functools
+import inspect
 import logging
 import math
 import re
@@ -17,23 +18,28 @@ import time
 import uuid
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from datetime import datetime
 from pathlib import Path
 
 import pandas as pd
 from hydra.errors import InstantiationException
-from hydra.utils import get_method, instantiate
+from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
 
 from hgo.components import Controller, Observer, Plant
 from hgo.console import compact_table
 from hgo.engine.jit import compile_timer
-from hgo.engine.simulate import SolverSettings, Trajectory, simulate
+from hgo.engine.simulate import INTERRUPTED, SolverSettings, Trajectory, simulate
 from hgo.engine.system import System
-from hgo.metrics import metrics_table
+from hgo.errors import ConfigError
+from hgo.metrics import metrics_table, status_word
 from hgo.noise import NoiseModel
 from hgo.postprocess import PostOutput
 from hgo.progress import compile_progress
-from hgo.recording import Series, time_series_blueprint, write_recording
+from hgo.recording import Series, atomic_output, time_series_blueprint, write_recording
+from hgo.runs import write_run_json
+from hgo.validate import check_cost as _check_sizes
+from hgo.validate import check_values
 
 log = logging.getLogger(__name__)
 
@@ -42,12 +48,17 @@ class SimulationFailed(RuntimeError):
     """A run stopped early; its outputs up to the stop time are written."""
 
 
+class RunInterrupted(KeyboardInterrupt):
+    """Ctrl-C (SIGINT) or SIGTERM stopped a run; its outputs up to then are written."""
+
+
 @dataclass
 class Experiment:
     system: System
     solver: SolverSettings
     noise: NoiseModel
     seed: int
+    post: dict = field(default_factory=dict)  # name -> post-processor, built and checked
 
 
 @dataclass
@@ -86,19 +97,45 @@ def _construct(node, **kwargs):
 
 @functools.cache
 def _locate_target(path: str):
-    return get_method(path)
+    """The callable ``path`` names, through Hydra's own target check (its blocklist of
+    ``os.system``, ``subprocess.*``, ...): the fast path runs only what instantiate would."""
+    from hydra._internal.instantiate._instantiate2 import _resolve_target
+
+    return _resolve_target(path, "_target_")
+
+
+def _signature_error(group: str, node, err: TypeError) -> ConfigError:
+    """A factory's TypeError (unknown or missing keyword) as a ConfigError naming the key."""
+    text = " ".join(str(err).split())
+    match = re.search(r"unexpected keyword argument '(\w+)'", text)
+    try:
+        params = [p for p in inspect.signature(_locate_target(node["_target_"])).parameters
+                  if p != "name"]
+    except Exception:  # noqa: BLE001 - the allowed list is a courtesy
+        params = []
+    allowed = ", ".join(params) or None
+    if match:
+        return ConfigError(f"{group}.{match.group(1)}", "is not a parameter of "
+                           f"{node['_target_']}", allowed)
+    return ConfigError(group, text, allowed)
 
 
 def _instantiate(node: DictConfig, group: str, expected: type, **kwargs):
+    if not isinstance(node, Mapping) or "_target_" not in node:
+        raise ConfigError(group, "needs a _target_ (the factory to call)")
     try:
         obj = _construct(node, **kwargs)
     except InstantiationException as err:  # surface the factory's one-line message
-        if isinstance(err.__cause__, ValueError):
-            raise ValueError(str(err.__cause__)) from None
-        raise
+        cause = err.__cause__
+        if isinstance(cause, ValueError):
+            raise cause from None
+        if isinstance(cause, TypeError):  # e.g. a keyword the factory does not take
+            raise _signature_error(group, node, cause) from None
+        text = " ".join(line for line in str(err).splitlines() if "full_key" not in line)
+        raise ConfigError(f"{group}._target_", " ".join(text.split())) from None
     if not isinstance(obj, expected):
-        raise TypeError(f"{group}._target_ must build a {expected.__name__}, "
-                        f"got {type(obj).__name__}")
+        raise ConfigError(f"{group}._target_", f"must build a {expected.__name__}, "
+                          f"got {type(obj).__name__}")
     return obj
 
 
@@ -128,18 +165,52 @@ def solver_settings(cfg: DictConfig) -> SolverSettings:
     settings = SolverSettings(
         t_end=s.t_end, dt_out=s.dt_out, method=s.method, h_max=s.h_max, rtol=s.rtol,
         atol=s.atol, state_bound=s.state_bound, window=cfg.metrics.window,
-        stability_safety=s.stability_safety)
+        stability_safety=s.stability_safety, max_steps=s.get("max_steps", 10 ** 9),
+        max_output_rows=s.get("max_output_rows", 10 ** 8))
     settings.validate()
     return settings
 
 
+def check_cost(system: System, solver: SolverSettings, noise: NoiseModel,
+               record: bool = True) -> None:
+    """Refuse a run whose output rows, noise samples or steps, estimated now, are too many
+    (:func:`hgo.validate.check_cost`)."""
+    n_rows = int(round(solver.t_end / solver.dt_out)) + 1 if record else 0
+    ny, nu = len(system.plant.output_names), len(system.plant.input_names)
+    n_cols = system.nz + system.nd + 2 * ny + nu + system.nxh
+    period = noise.period if noise.kind != "none" else math.inf
+    n_noise = int(math.ceil(solver.t_end / period)) + 1 if math.isfinite(period) else 1
+    _check_sizes(n_rows, n_cols, n_noise * ny, solver.min_steps(system.spectral_radius(), period),
+               solver.max_output_rows, solver.max_steps)
+
+
+def build_postprocessors(cfg: DictConfig, system: System, solver: SolverSettings) -> dict:
+    """The ``postprocess`` group, instantiated and checked against the run before it."""
+    post = {}
+    for name, node in (cfg.get("postprocess") or {}).items():
+        obj = _instantiate(node, f"postprocess.{name}", object)
+        if not callable(getattr(obj, "apply", None)):
+            raise ConfigError(f"postprocess.{name}._target_", "must build an object with "
+                              f"apply(system, traj), got {type(obj).__name__}")
+        if callable(getattr(obj, "check", None)):
+            obj.check(system, solver, f"postprocess.{name}")
+        post[name] = obj
+    return post
+
+
 def build(cfg: DictConfig) -> Experiment:
-    """Instantiate and check every component; raises ValueError naming the bad key."""
+    """Check the values, instantiate and check every component against the others and the
+    run's size: raises ValueError (mostly :class:`ConfigError`) naming the bad key."""
+    check_values(cfg)
     solver = solver_settings(cfg)
     vacuous_factor(cfg)
+    figure_settings(cfg)
     system = build_system(cfg)
     noise = _instantiate(cfg.noise, "noise", NoiseModel)
-    return Experiment(system, solver, noise, int(cfg.seed))
+    noise.check_channels(len(system.plant.output_names))
+    post = build_postprocessors(cfg, system, solver)
+    check_cost(system, solver, noise)
+    return Experiment(system, solver, noise, int(cfg.seed), post)
 
 
 def run_experiment(exp: Experiment) -> Trajectory:
@@ -203,8 +274,9 @@ def recording_id(out_dir: Path) -> str:
 def postprocess(cfg: DictConfig, exp: Experiment, traj: Trajectory) -> PostOutput:
     """Apply every post-processor of the ``postprocess`` group, in config order."""
     total, seen = PostOutput(), {}
-    for name, node in (cfg.get("postprocess") or {}).items():
-        out = instantiate(node).apply(exp.system, traj)
+    post = exp.post or build_postprocessors(cfg, exp.system, exp.solver)
+    for name, obj in post.items():
+        out = obj.apply(exp.system, traj)
         total.series += out.series
         for row in out.rows:  # a row two post-processors both give (same value) once
             key = (row["observer"], row["quantity"])
@@ -265,6 +337,7 @@ class MemoryRun:
 def simulate_config(cfg: DictConfig) -> MemoryRun:
     """Build, simulate, post-process and tabulate the metrics of a composed config."""
     exp = build(cfg)
+    log.info("integrating t = 0 .. %g s (%s)", exp.solver.t_end, exp.solver.method)
     t0 = time.perf_counter()
     with compile_timer() as compiling, compile_progress(exp.solver.method):
         traj = run_experiment(exp)
@@ -277,31 +350,51 @@ def simulate_config(cfg: DictConfig) -> MemoryRun:
     return MemoryRun(exp, traj, post, table, t_sim, t_compile)
 
 
+def status_text(traj: Trajectory) -> str:
+    """The run's status line (``/run/status`` of the recording)."""
+    if traj.ok:
+        return f"ok: t = 0 .. {traj.t_stop:g} s"
+    return f"{status_word(traj.status)} at t = {traj.t_stop:g} s: {traj.message}"
+
+
 def run(cfg: DictConfig, out_dir: str | Path) -> RunResult:
-    """Build, simulate and write ``recording.rrd``, ``metrics.csv`` and figures."""
+    """Build, simulate and write ``recording.rrd``, ``metrics.csv`` and figures.
+
+    Every file is written under ``<name>.partial`` and renamed when complete. A run that
+    stopped early raises :class:`SimulationFailed`, an interrupted one (Ctrl-C)
+    :class:`RunInterrupted`, both after writing what was computed."""
     out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    figure_settings(cfg)
+    started = datetime.now()
     mem = simulate_config(cfg)
+    out_dir.mkdir(parents=True, exist_ok=True)
     exp, traj, table = mem.experiment, mem.trajectory, mem.metrics
     series = signals(exp.system, traj) + mem.post.series
-    status_text = (f"ok: t = 0 .. {traj.t_stop:g} s" if traj.ok else
-                   f"failed at t = {traj.t_stop:g} s: {traj.message}")
     t1 = time.perf_counter()
     write_recording(out_dir / "recording.rrd", traj.t, series,
                     recording_id=recording_id(out_dir), blueprint=blueprint(exp.system, series),
-                    text={"/run/status": status_text,
+                    text={"/run/status": status_text(traj),
                           "/run/config": job_config_yaml(cfg)})
     t_write = time.perf_counter() - t1
     log.info("simulated in %.3f s (compiling %.3f s); recording of %d samples x %d columns "
              "written in %.3f s", mem.simulate_seconds, mem.compile_seconds, len(traj.t),
              sum(len(s.names) for s in series), t_write)
-    table.to_csv(out_dir / "metrics.csv", index=False)
+    with atomic_output(out_dir / "metrics.csv") as partial:
+        table.to_csv(partial, index=False)
     log.info("metrics (all columns in metrics.csv):\n%s", compact_table(table))
     result = RunResult(exp, traj, table, out_dir, series, {
         "compile": mem.compile_seconds, "simulate": mem.simulate_seconds, "write": t_write})
+    stopped = (f"run {status_word(traj.status)} at t = {traj.t_stop:g} s: {traj.message} "
+               f"(outputs up to then are in {out_dir})")
     if not traj.ok:
-        raise SimulationFailed(f"run stopped at t = {traj.t_stop:g} s: {traj.message} "
-                               f"(outputs up to then are in {out_dir})")
+        _track(cfg, result, started, f"{status_word(traj.status)}: {traj.message}")
+        raise (RunInterrupted if traj.status == INTERRUPTED else SimulationFailed)(stopped)
     _figures(cfg, result)
+    _track(cfg, result, started, "ok")
     return result
+
+
+def _track(cfg: DictConfig, result: RunResult, started: datetime, status: str) -> None:
+    """``run.json``: provenance, timings, status, config and metrics (:mod:`hgo.runs`)."""
+    job = OmegaConf.masked_copy(cfg, [k for k in cfg if k != "hydra"])
+    write_run_json(result.out_dir, OmegaConf.to_container(job, resolve=True), status, started,
+                   result.timings, result.metrics)

@@ -94,7 +94,9 @@ def write_run_json(out_dir: Path, config: dict, status: str, started: datetime,
         "metrics": metrics_summary(metrics),
     }
     path = Path(out_dir) / "run.json"
-    path.write_text(json.dumps(info, indent=1, default=str))
+    partial = path.with_name("run.json.partial")  # renamed when complete
+    partial.write_text(json.dumps(info, indent=1, default=str))
+    partial.replace(path)
     return path
 
 

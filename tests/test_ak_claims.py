@@ -46,7 +46,7 @@ def test_claim1_switches_once_after_entering_zone():
     assert sw("t_switch_first") == sw("t_switch_last")
     assert sw("t_enter_first") >= 0 and sw("t_switch_first") > sw("t_enter_first")
     # the timer ran T_d inside the zone, without a reset, and the switch came at the first
-    # step boundary after that (substep 0.0008/90 = 8.9e-6 s)
+    # step boundary after that (substep 5e-5/6 = 8.3e-6 s)
     assert 0.15 <= sw("zone_time_at_first_switch") < 0.15 + 1e-5
     assert sw("t_switch_first") == pytest.approx(sw("t_enter_first") + 0.15, abs=1e-5)
     gain = traj.d[:, 0]
@@ -57,20 +57,20 @@ def test_claim1_switches_once_after_entering_zone():
 def test_claim1_no_delay_switches_repeatedly(safety):
     """T_d = 0: repeated switching (Ahrens & Khalil Section 4), for every RK4 step.
 
-    The count is a property of the discretisation, not of the continuous system: the
-    error chatters along the zone edge while x^2 recovers from peaking, and each
-    substep can cross it. Measured over 0.5 s (substep = 0.0008 s / n):
-    safety 0.9 (n = 45): 73 switches, last at 0.003 s; 0.45 (n = 90): 151, last at
-    0.079 s; 0.225 (n = 179): 233, last at 0.117 s. Robust across steps: more than one
-    switch, an odd count (the run ends on H2), and none after the peaking (t < 0.15 s).
+    Only "more than one switch" is asserted: the count, its parity and the time of the last
+    switch are properties of the discretisation, not of the continuous system (the error
+    chatters along the zone edge while x^2 recovers from peaking, and each substep can
+    cross it). Measured over 0.5 s (dt_out = 5e-5 s, substep 5e-5 s / n): safety 0.9
+    (n = 3): 73 switches, last at 0.0031 s; 0.45 (n = 6): 169, last at 0.102 s; 0.225
+    (n = 12): 191, last at 0.0029 s. With h = 1e-5 the issue measured 1443 switches, the
+    last at 1.49 s: switching need not stop after the peaking.
     """
     _, rows = _run(["experiment=ak_fig1", "solver.t_end=0.5", "observer.switched.T_d=0",
                     f"solver.stability_safety={safety}", "postprocess.ak.late_window=0.2"])
     n = rows[("switched", "n_switches")]
     print(f"T_d = 0, stability_safety = {safety}: {n:g} switches, last at "
           f"{rows[('switched', 't_switch_last')]:.4g} s")
-    assert n > 1 and n % 2 == 1
-    assert rows[("switched", "t_switch_last")] < 0.15
+    assert n > 1
 
 
 # --- claims 2 and 3: the three closed loops of ak_fig2 -------------------------------------
@@ -101,10 +101,12 @@ def test_claim2_transient_like_eps1(loops):
 def test_claim3_steady_state_like_eps2(loops):
     """RMS e2 over [2, 3] s: switched ~ fixed eps2 and below fixed eps1.
 
-    Measured: 2.13e-3 (switched), 2.27e-3 (eps2), 3.59e-3 (eps1) rad/s. At eps2 the
+    Measured: 2.13e-3 (switched), 2.27e-3 (eps2), 3.11e-3 (eps1) rad/s. At eps2 the
     e2 floor is the model-error bias (phi0 has -0.11 x2 for -0.1 x2: x^2 is off by
     ~alpha1 eps2 0.1 x2 / alpha2 = 2e-3); at eps1 the noise dominates. The velocity
-    estimate shows the noise attenuation directly: RMS(x^2 - x2) 0.0126 vs 0.48."""
+    estimate shows the noise attenuation directly: RMS(x^2 - x2) 0.0123 vs 1.28 (over
+    every integration step; the 0.8 ms output grid of the noise jumps gave 3.59e-3 and
+    0.48, see test_ak_metrics_do_not_depend_on_the_output_grid)."""
     rms = {n: loops[n][(n, "rms_e2_late")] for n in LOOPS}
     est = {n: loops[n][(n, "rms_err_x2_late")] for n in LOOPS}
     print("RMS e2 over [2, 3] s:", rms, "RMS x^2 - x2:", est)
@@ -112,6 +114,24 @@ def test_claim3_steady_state_like_eps2(loops):
     assert rms["switched"] < 0.8 * rms["fixed_eps1"]
     assert est["switched"] == pytest.approx(est["fixed_eps2"], rel=0.05)
     assert est["switched"] < 0.1 * est["fixed_eps1"]
+
+
+GRID_METRICS = ("max_abs_e2_transient", "rms_e2_late", "max_abs_e2_late",
+                "ultimate_bound_err", "rms_err_x2_late")
+
+
+def test_ak_metrics_do_not_depend_on_the_output_grid(loops):
+    """Each AK metric of the fixed-eps1 loop (the noisiest) changes by < 1 % when dt_out
+    is divided by 10 (5e-5 -> 5e-6 s). Estimation-error metrics come from the kernel
+    (every step); e2 metrics from a grid of 16 samples per noise hold."""
+    _, fine = _run(["experiment=ak_fig2", "controller.observer=fixed_eps1",
+                    "solver.dt_out=5e-6"])
+    coarse = loops["fixed_eps1"]
+    changes = {key: abs(fine[key] / coarse[key] - 1) for key in coarse
+               if key[1] in GRID_METRICS}
+    print("relative change with dt_out / 10:", {k: f"{v:.2e}" for k, v in changes.items()})
+    assert len(changes) == 2 + 2 * len(LOOPS) + 1
+    assert max(changes.values()) < 0.01
 
 
 # --- claim 4: the trade-off (25) -----------------------------------------------------------

@@ -70,8 +70,8 @@ def test_gaussian_noise_is_seeded_held_and_has_its_std():
 
 
 @pytest.mark.parametrize("kwargs, words", [
-    ({"kind": "pink"}, "noise.kind: 'pink' not in"),
-    ({"kind": "uniform", "period": 0.0}, "noise.period must be > 0"),
+    ({"kind": "pink"}, "noise.kind: 'pink' is not a noise kind"),
+    ({"kind": "uniform", "period": 0.0}, "noise.period: must be > 0"),
     ({"kind": "uniform", "amplitude": -1.0}, "must be >= 0"),
 ])
 def test_bad_noise_config_is_named(kwargs, words):

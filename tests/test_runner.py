@@ -117,11 +117,11 @@ def test_user_plant_through_target(compose, tmp_path):
     ("observer.sign_indefinite.p1=-1", "p1 must be > 0"),
     ("observer.sign_indefinite.b=0.5", "b must be in (0, 1/2)"),
     ("observer.dead_zone.r0=0.5", "r0 must be >= 1"),
-    ("solver.t_end=-1", "solver.t_end must be > 0"),
-    ("solver.h_max=0", "solver.h_max must be > 0"),
-    ("solver.dt_out=0", "solver.dt_out must be > 0"),
+    ("solver.t_end=-1", "solver.t_end: must be > 0"),
+    ("solver.h_max=0", "solver.h_max: must be > 0"),
+    ("solver.dt_out=0", "solver.dt_out: must be > 0"),
     ("observer.sign_indefinite.law=quadratic", "not in ['constant', 'dead_zone'"),
-    ("solver.method=euler", "solver.method: 'euler' not in"),
+    ("solver.method=euler", "solver.method: 'euler' is not a method"),
 ])
 def test_bad_parameters_fail_before_integration(compose, tmp_path, override, words):
     cfg = compose(["experiment=sp_fig1", override], tmp_path)

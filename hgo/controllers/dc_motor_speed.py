@@ -86,13 +86,14 @@ def dc_motor_speed_controller(observer: str | None = None, k: float = 5.0, w0: f
     """The speed-tracking controller fed by observer ``observer`` (None: the first one)."""
     for key, value in (("k", k), ("T_rise", T_rise), ("b", b), ("x3_min", x3_min)):
         if not (value > 0 and math.isfinite(value)):
-            raise ValueError(f"controller {name}.{key} must be in (0, inf), got {value}")
+            raise ValueError(f"controller.{key} must be in (0, inf), got {value}")
     if not u_max > 0:
-        raise ValueError(f"controller {name}.u_max must be in (0, inf] (inf: no clip), "
+        raise ValueError(f"controller.u_max must be in (0, inf] (inf: no clip), "
                          f"got {u_max}")
     for key, value in (("w0", w0), ("w_step", w_step), ("t_step", t_step), ("a_sin", a_sin),
                        ("omega_sin", omega_sin), ("a", a)):
         if not math.isfinite(value):
-            raise ValueError(f"controller {name}.{key} must be finite, got {value}")
+            raise ValueError(f"controller.{key} must be finite, got {value}")
     p = np.array([a, b, k, x3_min, u_max, w0, w_step, t_step, T_rise, a_sin, omega_sin], float)
-    return Controller(name=name, p=p, u=u, observer=observer)
+    return Controller(name=name, p=p, u=u, observer=observer, reads_outputs=[1],
+                      reads_estimate=[1])  # x3 = y[1], x^2 = xhat[1]

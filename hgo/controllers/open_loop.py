@@ -28,5 +28,5 @@ def open_loop_controller(a: float = 1.0, b: float = 0.5, omega: float = 1.0,
     """u(t) = a + b sin(omega t); the defaults are problem A's u = 1 + 0.5 sin t."""
     for key, value in (("a", a), ("b", b), ("omega", omega)):
         if not math.isfinite(value):
-            raise ValueError(f"controller {name}.{key} must be finite, got {value}")
+            raise ValueError(f"controller.{key} must be finite, got {value}")
     return Controller(name=name, p=np.array([a, b, omega], float), u=u, observer=None)

@@ -14,12 +14,14 @@ one warning saying why.
 from __future__ import annotations
 
 import dis
+import functools
 import hashlib
 import importlib.util
 import inspect
 import os
 import sys
 import tempfile
+import warnings
 from pathlib import Path
 from types import ModuleType
 
@@ -36,10 +38,25 @@ Never ``nnan``/``ninf``: the kernel detects non-finite states."""
 
 
 def cache_dir() -> Path:
-    """Folder of generated kernels: ``$HGO_CACHE_DIR`` or ``~/.cache/hgo/kernels``."""
+    """Folder of generated kernels: ``$HGO_CACHE_DIR`` or ``~/.cache/hgo/kernels``; a
+    private temporary folder (one warning) when that one cannot be created or written."""
     root = os.environ.get("HGO_CACHE_DIR") or Path.home() / ".cache" / "hgo" / "kernels"
     path = Path(root)
-    path.mkdir(parents=True, exist_ok=True)
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        if os.access(path, os.W_OK | os.X_OK):
+            return path
+    except OSError:
+        pass
+    return _fallback_dir(path)
+
+
+@functools.cache
+def _fallback_dir(wanted: Path) -> Path:
+    path = Path(tempfile.mkdtemp(prefix="hgo-kernels-"))
+    warnings.warn(f"hgo: the kernel cache {wanted} is not writable; compiling into {path} "
+                  "for this process only (set HGO_CACHE_DIR to a writable folder)",
+                  RuntimeWarning, stacklevel=3)
     return path
 
 
@@ -103,6 +120,7 @@ def _header(system: System, names: dict) -> str:
         f"NW = {ny + nu + n_xc}",
         f"EST_MAP = np.array({system.estimate_map().tolist()}, dtype=np.int64)",
         f"YHAT_COL = np.array({system.yhat_columns().tolist()}, dtype=np.int64)",
+        f"OBS_OF = np.array({system.xh_observer().tolist()}, dtype=np.int64)",
         "",
         "",
         "@ijit",
@@ -242,15 +260,77 @@ def kernel_source(system: System, method: str = "dopri5") -> tuple[str, dict[str
     return text, functions
 
 
+def _digest(text: str) -> str:
+    return hashlib.sha256(text.encode()).hexdigest()[:20]
+
+
 def _write_once(text: str) -> Path:
-    digest = hashlib.sha256(text.encode()).hexdigest()[:20]
+    """The cache entry of ``text``, named by its hash; an existing entry is verified (hash of
+    its text) and a corrupted one rewritten, with its numba cache, after one warning."""
+    digest = _digest(text)
     path = cache_dir() / f"hgo_kernel_{digest}.py"
-    if not path.exists():  # atomic: parallel sweep jobs may race here
-        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-        with os.fdopen(fd, "w") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
+    if path.exists():
+        try:
+            intact = _digest(path.read_text()) == digest
+        except (OSError, UnicodeDecodeError):
+            intact = False
+        if intact:
+            return path
+        warnings.warn(f"hgo: kernel-cache entry {path.name} is corrupted (its text does not "
+                      "match its hash); rebuilding it", RuntimeWarning, stacklevel=3)
+        purge_numba_cache(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")  # atomic: jobs may race
+    with os.fdopen(fd, "w") as fh:
+        fh.write(text)
+    os.replace(tmp, path)
     return path
+
+
+def numba_cache_dirs(path: Path) -> list[Path]:
+    """Where numba may keep the compiled cache of the module file ``path``."""
+    dirs = [path.parent / "__pycache__"]
+    if config_dir := os.environ.get("NUMBA_CACHE_DIR"):
+        dirs += [p.parent for p in Path(config_dir).rglob(f"{path.stem}.*.nbi")]
+    return dirs
+
+
+def purge_numba_cache(path: Path) -> int:
+    """Delete numba's cache files (index and data) of the kernel module ``path``; returns
+    how many were removed."""
+    removed = 0
+    for folder in numba_cache_dirs(path):
+        for entry in folder.glob(f"{path.stem}.*"):
+            if entry.suffix in (".nbi", ".nbc"):
+                entry.unlink(missing_ok=True)
+                removed += 1
+    return removed
+
+
+def damaged_cache_file(err: BaseException) -> Path | None:
+    """The numba cache index whose reading raised ``err`` (from numba's frames), if any."""
+    found, tb = None, err.__traceback__
+    while tb is not None:
+        index = getattr(tb.tb_frame.f_locals.get("self"), "_index_path", None)
+        if index:
+            found = Path(index)
+        tb = tb.tb_next
+    return found
+
+
+def remove_cache_entry(index: Path) -> None:
+    """Delete a numba cache index and its data files (``<name>.nbi``, ``<name>.<k>.nbc``)."""
+    stem = index.name.removesuffix(".nbi")
+    for entry in index.parent.glob(f"{stem}*"):
+        if entry.suffix in (".nbi", ".nbc"):
+            entry.unlink(missing_ok=True)
+
+
+def forget_kernel(module: ModuleType) -> None:
+    """Drop a loaded kernel module (and its numba cache) so the next load recompiles it."""
+    for key in [k for k, m in _LOADED.items() if m is module]:
+        del _LOADED[key]
+    sys.modules.pop(module.__name__, None)
+    purge_numba_cache(Path(module.__file__))
 
 
 def load_kernel(system: System, compiled: bool = True, method: str = "dopri5") -> ModuleType:
@@ -302,7 +382,9 @@ def _decorators(compiled: bool) -> dict[str, object]:
 
     # error_model="numpy": a division by zero gives inf/nan (caught as status 1) instead of
     # raising, and drops a branch from every division of the hot loop.
-    opts = {"cache": True, "error_model": "numpy", "fastmath": set(FASTMATH)}
+    # nogil: the integration runs in a worker thread while the main thread waits for Ctrl-C
+    # (hgo.engine.simulate); it holds no Python object, so releasing the GIL is free.
+    opts = {"cache": True, "error_model": "numpy", "fastmath": set(FASTMATH), "nogil": True}
     # Inlined helpers are never called from Python: they skip the CPython wrapper numba
     # would otherwise compile through LLVM too (measured: ~15 % of a fresh compile of
     # problem B). ``jit`` functions keep theirs: without it _trial ran slower.

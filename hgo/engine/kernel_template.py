@@ -25,7 +25,11 @@ saturations) runs after every step, so switching instants are step boundaries to
   instants and the horizon do). Outputs that fall on a step end are taken after the
   step's discrete update (and after the noise sample change when they coincide with one).
 
-Status codes: 0 ok, 1 non-finite state, 2 state beyond ``bound``, 3 step-size underflow.
+Status codes: 0 ok, 1 non-finite state, 2 state beyond ``bound``, 3 step-size underflow,
+4 non-finite step size (a NaN/inf in the right-hand side or its parameters), 5 step limit
+``ctl[1]`` reached, 6 interrupted (``ctl[0]`` set by another thread: Ctrl-C). ``ctl`` is
+checked after every step (a load): the run stops within one step of a request, without
+any change to the integration itself.
 The record arrays (Z, D, Y, M, U, XH) are filled only when they have rows (an ensemble
 passes empty ones and keeps only the metric accumulators).
 """
@@ -46,9 +50,9 @@ def _state_status(z, bound):
     return 0
 
 
-# Length of the work vector the integrators share: w, y, u, xh, sq, prev, win, m
+# Length of the work vector the integrators share: w, y, u, xh, sq, prev, win (2), m
 # (a global int: a constant for numba, not one more function to compile).
-N_COMMON_WORK = NW + NY + NU + NXH + 2 * (NXH + NOBS) + 1 + NY
+N_COMMON_WORK = NW + NY + NU + NXH + 2 * (NXH + NOBS) + 2 + NY
 
 
 @ijit
@@ -62,8 +66,8 @@ def _common_views(work, o):
     o += NW + NY + NU + NXH
     sq = view(work, o, o + NXH + NOBS)
     prev = view(work, o + NXH + NOBS, o + 2 * (NXH + NOBS))
-    win = view(work, o + 2 * (NXH + NOBS), o + 2 * (NXH + NOBS) + 1)
-    m = view(work, o + 2 * (NXH + NOBS) + 1, o + 2 * (NXH + NOBS) + 1 + NY)
+    win = view(work, o + 2 * (NXH + NOBS), o + 2 * (NXH + NOBS) + 2)
+    m = view(work, o + 2 * (NXH + NOBS) + 2, o + 2 * (NXH + NOBS) + 2 + NY)
     return w, y, u, xh, sq, prev, win, m
 
 
@@ -92,12 +96,7 @@ def _start(z, d, m, P, w, y, u, xh, sq, prev, acc, win, noise, bound, t_end, dt_
 @ijit
 def _emit(k, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0, tol,
           Z, D, Y, M, U, XH):
-    """Output sample k at time t: record it, and add it to the trailing-window integrals.
-
-    The integrals are trapezoids of squared errors over [t_end - t_window, t_end]
-    (Sanfelice & Praly (11)-(12)); ``win[0]`` tells whether a previous sample is in the
-    window. ``acc[-1]`` accumulates the window length actually integrated.
-    """
+    """Output sample k at time t: record it, and add it to the trailing-window metrics."""
     system_outputs(t, z, d, m, P, w, y, u, xh)
     if Z.shape[0] > 0:
         for i in range(NZ):
@@ -112,23 +111,53 @@ def _emit(k, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0, tol
         for i in range(NXH):
             XH[k, i] = xh[i]
     if t >= t_win0 - tol:
+        _accumulate(t, z, y, xh, sq, prev, acc, win)
+
+
+@ijit
+def _step_end(t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, t_win0, tol):
+    """A step ends at t: add the point to the window metrics (inside the window only)."""
+    if t >= t_win0 - tol:
+        system_outputs(t, z, d, m, P, w, y, u, xh)
+        _accumulate(t, z, y, xh, sq, prev, acc, win)
+
+
+@ijit
+def _accumulate(t, z, y, xh, sq, prev, acc, win):
+    """Add the point t to the trailing-window metrics (Sanfelice & Praly (11)-(12)).
+
+    Called at every step end and every output instant inside [t_end - t_window, t_end],
+    in time order: trapezoids of the squared errors between consecutive points
+    (``acc[:NXH + NOBS]``), the largest error norm ||x^ - x|| of each observer
+    (``acc[NXH + NOBS:NXH + 2 NOBS]``) and the window length (``acc[-1]``). The points are
+    the integration steps, so the metrics do not depend on the output grid. ``win[0]``
+    tells whether a previous point exists, ``win[1]`` is its time.
+    """
+    for j in range(NXH):
+        sq[j] = (xh[j] - z[EST_MAP[j]]) ** 2 if EST_MAP[j] >= 0 else 0.0
+    for k2 in range(NOBS):
+        c = YHAT_COL[k2]
+        sq[NXH + k2] = (xh[c] - y[0]) ** 2 if c >= 0 else 0.0
+    for k2 in range(NOBS):
+        norm2 = 0.0
         for j in range(NXH):
-            sq[j] = (xh[j] - z[EST_MAP[j]]) ** 2 if EST_MAP[j] >= 0 else 0.0
-        for k2 in range(NOBS):
-            c = YHAT_COL[k2]
-            sq[NXH + k2] = (xh[c] - y[0]) ** 2 if c >= 0 else 0.0
-        if win[0] > 0.0:
-            for j in range(NXH + NOBS):
-                acc[j] += 0.5 * dt_out * (sq[j] + prev[j])
-            acc[NXH + NOBS] += dt_out
+            if OBS_OF[j] == k2:
+                norm2 += sq[j]
+        acc[NXH + NOBS + k2] = max(acc[NXH + NOBS + k2], math.sqrt(norm2))
+    if win[0] > 0.0:
+        dt = t - win[1]
         for j in range(NXH + NOBS):
-            prev[j] = sq[j]
-        win[0] = 1.0
+            acc[j] += 0.5 * dt * (sq[j] + prev[j])
+        acc[NXH + 2 * NOBS] += dt
+    for j in range(NXH + NOBS):
+        prev[j] = sq[j]
+    win[0] = 1.0
+    win[1] = t
 
 
 @pjit
 def integrate_ensemble(Z0, D0, PP, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab,
-                       rho_const, bound, t_window, ACC, STATUS, T_STOP):
+                       rho_const, bound, t_window, ACC, STATUS, T_STOP, ctl):
     """Integrate many runs in parallel (one per row of Z0, D0, PP, noise), metrics only."""
     n_members = Z0.shape[0]
     for i in prange(n_members):
@@ -137,7 +166,7 @@ def integrate_ensemble(Z0, D0, PP, noise, noise_dt, t_end, dt_out, h_max, rtol, 
         d = D0[i].copy()
         st, n_rec, t_stop = integrate(z, d, PP[i], noise[i], noise_dt, t_end, dt_out, h_max,
                                       rtol, atol, stab, rho_const, bound, t_window, empty,
-                                      empty, empty, empty, empty, empty, ACC[i])
+                                      empty, empty, empty, empty, empty, ACC[i], ctl)
         STATUS[i] = st
         T_STOP[i] = t_stop
 
@@ -163,7 +192,7 @@ def _rk4_step(t, h, z, d, m, P, w, k1, k2, k3, k4, zt):
 
 @jit
 def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, rho_const,
-              bound, t_window, Z, D, Y, M, U, XH, acc):
+              bound, t_window, Z, D, Y, M, U, XH, acc, ctl):
     """Integrate one run (RK4). Returns (status, number of output samples, stop time).
 
     One compiled function (no wrapper around an inner one): every extra level of numba
@@ -187,6 +216,8 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
                                         bound, t_end, dt_out, t_window, Z, D, Y, M, U, XH)
     if status != 0:
         return status, 1, t
+    n_steps = 0
+    max_steps = ctl[1]
     for k_out in range(1, n_out):
         t_out = t_end if k_out == n_out - 1 else k_out * dt_out
         while True:
@@ -211,6 +242,12 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
                 status = _state_status(z, bound)
                 if status != 0:
                     return status, k_out, t
+                _step_end(t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, t_win0, tol)
+                n_steps += 1
+                if n_steps > max_steps:
+                    return 5, k_out, t
+                if ctl[0] != 0:
+                    return 6, k_out, t
             t = t_next
             if t_noise <= t_out:
                 k_noise += 1
@@ -257,7 +294,7 @@ def _initial_step(t, z, d, m, P, w, k1, k2, zt, rtol, atol, h_max):
 
 @jit
 def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, rho_const,
-              bound, t_window, Z, D, Y, M, U, XH, acc):
+              bound, t_window, Z, D, Y, M, U, XH, acc, ctl):
     """Integrate one run (adaptive). Returns (status, number of output samples, stop time).
 
     One compiled function, as for RK4 (``stab`` and ``rho_const`` are unused here).
@@ -286,6 +323,8 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
     if status != 0:
         return status, 1, t
     k_out = np.int64(1)
+    n_steps = 0  # trials, accepted or rejected
+    max_steps = ctl[1]
     system_rhs(t, z, d, m, P, w, k1)
     h = _initial_step(t, z, d, m, P, w, k1, zo, zt, rtol, atol, h_max)
     fsal = True  # k1 holds f(t, z) for the current noise sample and discrete state
@@ -302,8 +341,13 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
             last = t + hh >= t_seg - tol
             if last:
                 hh = t_seg - t
-            if hh < 1e-14 * max(1.0, abs(t)):
-                return 3, k_out, t
+            if not hh >= 1e-14 * max(1.0, abs(t)):  # (NaN fails every comparison)
+                return 3 if math.isfinite(hh) else 4, k_out, t
+            n_steps += 1
+            if n_steps > max_steps:
+                return 5, k_out, t
+            if ctl[0] != 0:
+                return 6, k_out, t
             err = _trial(t, hh, z, d, m, P, w, K, zt, rtol, atol)
             if not err <= 1.0:  # rejected (or non-finite)
                 h = hh * (0.2 if not math.isfinite(err) else max(0.2, 0.9 * err ** ERR_EXP))
@@ -338,6 +382,7 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
             status = _state_status(z, bound)
             if status != 0:
                 return status, k_out, t
+            _step_end(t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, t_win0, tol)
             fac = 10.0 if err == 0.0 else min(10.0, max(0.2, 0.9 * err ** ERR_EXP))
             if retried:  # as scipy: no growth right after a rejection (B: 4 % fewer trials)
                 fac = min(1.0, fac)

@@ -19,17 +19,31 @@ Units: time in seconds of simulated time; states in the plant's own units.
 from __future__ import annotations
 
 import math
+import pickle
+import threading
 import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
-from hgo.engine.codegen import load_kernel
+from hgo.engine.codegen import (
+    damaged_cache_file,
+    forget_kernel,
+    load_kernel,
+    remove_cache_entry,
+)
 from hgo.engine.system import System
+from hgo.errors import ConfigError
 
 RK4_STABILITY = 2.785  # |h*lambda| limit of classical RK4 on the negative real axis
 METHODS = {"rk4": 0, "dopri5": 1, "dop853": 2}
-STATUS = {0: "ok", 1: "non-finite state", 2: "state left the bound", 3: "step size underflow"}
+CACHE_ERRORS = (pickle.UnpicklingError, EOFError)  # numba reading a damaged cache file
+MAX_CACHE_REPAIRS = 64  # damaged cache files deleted (one per retry) before giving up
+STATUS = {0: "ok", 1: "non-finite state", 2: "state left the bound", 3: "step size underflow",
+          4: "non-finite step size (NaN/inf in the right-hand side or a parameter)",
+          5: "step limit solver.max_steps reached", 6: "interrupted"}
+INTERRUPTED = 6
+WAIT_S = 0.05  # the main thread wakes this often while a compiled integration runs
 
 
 @dataclass(frozen=True)
@@ -45,20 +59,53 @@ class SolverSettings:
     state_bound: float = 1e6
     window: float = 0.0  # trailing window of the mean-error metrics; 0: last quarter
     stability_safety: float = 0.9
+    max_steps: int = 10 ** 9  # a run stops (failed) after this many integration steps
+    max_output_rows: int = 10 ** 8  # runs recording more output rows are refused up front
 
     def validate(self) -> None:
+        """Every setting in its range (keys named as in the config: solver.*, metrics.*)."""
         if self.method not in METHODS:
-            raise ValueError(f"solver.method: '{self.method}' not in {sorted(METHODS)}")
-        for key in ("t_end", "dt_out", "h_max", "rtol", "atol", "state_bound"):
+            raise ConfigError("solver.method", f"'{self.method}' is not a method",
+                              ", ".join(sorted(METHODS)))
+        for key in ("t_end", "dt_out", "rtol", "atol"):
+            value = getattr(self, key)
+            if not (value > 0 and math.isfinite(value)):
+                raise ConfigError(f"solver.{key}", f"must be > 0 and finite, got {value}")
+        for key in ("h_max", "state_bound"):  # inf: no cap
             if not getattr(self, key) > 0:
-                raise ValueError(f"solver.{key} must be > 0, got {getattr(self, key)}")
+                raise ConfigError(f"solver.{key}", f"must be > 0, got {getattr(self, key)}",
+                                  "(0, inf]")
+        if not 0 < self.stability_safety <= 1:
+            raise ConfigError("solver.stability_safety", "the fraction of RK4's stability "
+                              f"limit taken as step cap must be in (0, 1], got "
+                              f"{self.stability_safety}", "(0, 1]")
+        for key in ("max_steps", "max_output_rows"):
+            value = getattr(self, key)
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+                raise ConfigError(f"solver.{key}", f"must be an integer >= 1, got {value!r}")
         ratio = self.t_end / self.dt_out
+        if ratio > self.max_output_rows:
+            raise ConfigError("solver.dt_out", f"the run records {ratio + 1:.3g} output rows "
+                              f"(t_end / dt_out + 1), over solver.max_output_rows = "
+                              f"{self.max_output_rows:.3g}", "raise solver.dt_out, lower "
+                              "solver.t_end or raise solver.max_output_rows")
         if abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio):
-            raise ValueError(f"solver.t_end ({self.t_end}) must be a multiple of "
-                             f"solver.dt_out ({self.dt_out})")
-        if not 0 <= self.window <= self.t_end:
-            raise ValueError(f"solver.window must be in [0, t_end={self.t_end}], "
-                             f"got {self.window}")
+            raise ConfigError("solver.t_end", f"must be a multiple of solver.dt_out "
+                              f"({self.dt_out}), got {self.t_end}")
+        if not (0 <= self.window <= self.t_end and math.isfinite(self.window)):
+            raise ConfigError("metrics.window", f"must be in [0, solver.t_end = {self.t_end}] "
+                              f"(0: the last quarter), got {self.window}")
+
+    def min_steps(self, spectral_radius: float, noise_period: float) -> float:
+        """A lower estimate of the integration steps: the horizon over the step cap, plus
+        one step per noise sample (and, for RK4, per output instant: both cut the steps)."""
+        cap = self.effective_h_max(spectral_radius)
+        steps = self.t_end / cap if math.isfinite(cap) else 0.0
+        if math.isfinite(noise_period) and noise_period > 0:
+            steps += self.t_end / noise_period
+        if self.method == "rk4":
+            steps += self.t_end / self.dt_out
+        return steps
 
     @property
     def t_window(self) -> float:
@@ -92,7 +139,7 @@ class Trajectory:
     xh: np.ndarray
     status: int
     t_stop: float
-    acc: np.ndarray  # window integrals of squared errors, then the window length
+    acc: np.ndarray  # window metrics (System.n_acc): integrals, max norms, window length
 
     @property
     def ok(self) -> bool:
@@ -111,17 +158,68 @@ def _kernel(system: System, method: str):
         return load_kernel(system, compiled=False, method=method)
 
 
+def _interruptible(fn, args: tuple, ctl: np.ndarray):
+    """``fn(*args)`` in a worker thread; Ctrl-C in the main thread sets ``ctl[0]``, which the
+    kernel checks after every step: it returns (status 6) within one step, and its
+    outputs up to then are kept. A second Ctrl-C while it winds up interrupts at once."""
+    out: dict = {}
+    done = threading.Event()  # (not Thread.join: an interrupted join marks the thread
+    #                            stopped while it still runs, Python <= 3.12)
+
+    def work():
+        try:
+            out["value"] = fn(*args)
+        except BaseException as err:  # noqa: BLE001 - re-raised in the calling thread
+            out["error"] = err
+        finally:
+            done.set()
+
+    threading.Thread(target=work, name="hgo-integrate", daemon=True).start()
+    try:
+        while not done.wait(WAIT_S):
+            pass
+    except KeyboardInterrupt:
+        ctl[0] = 1
+        done.wait()
+    if "error" in out:
+        raise out["error"]
+    return out["value"]
+
+
 def _call(system: System, method: str, fname: str, *args):
     module = _kernel(system, method)
     try:
-        return getattr(module, fname)(*args)
+        return _call_repairing_cache(system, method, module, fname, args)
     except Exception as err:  # numba typing/lowering errors of user components
         if type(err).__module__.split(".")[0] != "numba":
             raise
         first = _reason(str(err))
         warnings.warn(f"hgo: numba could not compile this system ({first}); running on the "
                       "pure-Python path (slow).", RuntimeWarning, stacklevel=3)
-        return getattr(load_kernel(system, compiled=False, method=method), fname)(*args)
+        module = load_kernel(system, compiled=False, method=method)
+        return _interruptible(getattr(module, fname), args, args[-1])
+
+
+def _call_repairing_cache(system: System, method: str, module, fname: str, args: tuple):
+    """Call the kernel; a damaged numba cache file (truncated, corrupted) is deleted, with
+    one warning, and the kernel recompiled, until the call goes through."""
+    warned = False
+    for _ in range(MAX_CACHE_REPAIRS):
+        try:
+            return _interruptible(getattr(module, fname), args, args[-1])
+        except CACHE_ERRORS as err:
+            damaged = damaged_cache_file(err)
+            if damaged is None:
+                raise
+            if not warned:
+                warnings.warn(f"hgo: a numba cache entry is damaged ({damaged.name}: "
+                              f"{type(err).__name__}: {_reason(str(err))}); deleting it and "
+                              "recompiling", RuntimeWarning, stacklevel=4)
+                warned = True
+            remove_cache_entry(damaged)
+            forget_kernel(module)
+            module = _kernel(system, method)
+    return _interruptible(getattr(module, fname), args, args[-1])
 
 
 def _reason(message: str) -> str:
@@ -148,6 +246,11 @@ def _common_args(system: System, solver: SolverSettings, noise: Noise) -> tuple:
     return (float(noise.dt), float(solver.t_end), float(solver.dt_out), float(solver.h_max),
             float(solver.rtol), float(solver.atol), float(stab), float(rho_const),
             float(solver.state_bound), float(solver.t_window))
+
+
+def _control(solver: SolverSettings) -> np.ndarray:
+    """The kernel's control vector: [stop request (set on Ctrl-C), step limit]."""
+    return np.array([0, solver.max_steps], dtype=np.int64)
 
 
 def _check_noise(system: System, noises: list[Noise]) -> None:
@@ -177,10 +280,10 @@ def simulate(system: System, solver: SolverSettings, noise: Noise,
     d = system.d0()
     P = system.params() if params is None else np.asarray(params, float)
     rec = [np.zeros((n_out, k)) for k in (system.nz, system.nd, ny, ny, nu, system.nxh)]
-    acc = np.zeros(system.nxh + len(system.observers) + 1)
+    acc = np.zeros(system.n_acc())
     status, n_rec, t_stop = _call(
         system, solver.method, "integrate", z, d, P,
-        np.ascontiguousarray(noise.samples, float), *args, *rec, acc)
+        np.ascontiguousarray(noise.samples, float), *args, *rec, acc, _control(solver))
     t = np.arange(n_rec) * solver.dt_out
     Z, D, Y, M, U, XH = (a[:n_rec] for a in rec)
     return Trajectory(t, Z, D, Y, M, U, XH, int(status), float(t_stop), acc)
@@ -212,12 +315,12 @@ def simulate_ensemble(system: System, solver: SolverSettings, noise: list[Noise]
     d0 = np.tile(system.d0(), (n, 1)) if d0 is None else np.ascontiguousarray(d0, float)
     if d0.shape != (n, system.nd):
         raise ValueError(f"d0 must have shape ({n}, {system.nd}), got {d0.shape}")
-    acc = np.zeros((n, system.nxh + len(system.observers) + 1))
+    acc = np.zeros((n, system.n_acc()))
     status = np.zeros(n, dtype=np.int64)
     t_stop = np.zeros(n)
     args = _common_args(system, solver, members[0])
     _call(system, solver.method, "integrate_ensemble", z0, d0, params, samples, *args, acc,
-          status, t_stop)
+          status, t_stop, _control(solver))
     return {"acc": acc, "status": status, "t_stop": t_stop}
 
 

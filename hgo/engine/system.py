@@ -13,6 +13,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from hgo.components import Controller, Observer, Plant
+from hgo.errors import ConfigError
+
+
+def _check_indices(key: str, what: str, indices, n: int, names: list[str]) -> None:
+    for i in indices:
+        if not 0 <= i < n:
+            raise ConfigError(key, f"{what} {i}, but there are {n} ({', '.join(names)})",
+                              f"0..{n - 1}" if n else "none")
 
 
 def _offsets(sizes: list[int]) -> list[tuple[int, int]]:
@@ -44,7 +52,39 @@ class System:
         ctrl_p = [] if self.controller is None else [len(self.controller.p)]
         self.p_slices = _offsets([len(self.plant.p)] + [len(o.p) for o in obs] + ctrl_p)
         self.xh_slices = _offsets([len(o.estimated_states) for o in obs])
-        self.controlled_observer()  # validate early
+        self.check_compatible()
+
+    def check_compatible(self) -> None:
+        """Every index a component reads or writes lies inside the plant's arrays."""
+        plant = self.plant
+        nx, ny, nu = plant.nx, len(plant.output_names), len(plant.input_names)
+        if ny < 1:
+            raise ConfigError("plant", f"plant {plant.name} has no measured output")
+        if not 0 <= plant.output_state < nx:
+            raise ConfigError("plant", f"output_state {plant.output_state} is not a state "
+                              f"of plant {plant.name}", f"0..{nx - 1}")
+        for o in self.observers:
+            key = f"observer.{o.name}"
+            bad = [i for i in o.estimated_states if not 0 <= i < nx]
+            if bad:
+                raise ConfigError(key, f"estimates {len(o.estimated_states)} states "
+                                  f"{list(o.estimated_states)} of plant {plant.name}, which "
+                                  f"has {nx} ({', '.join(plant.state_names)})",
+                                  f"an observer of at most {nx} states")
+            _check_indices(key, "reads measured channel", o.reads_outputs, ny,
+                           plant.output_names)
+            _check_indices(key, "reads plant input", o.reads_inputs, nu, plant.input_names)
+        k = self.controlled_observer()
+        if k is not None:
+            if nu == 0:
+                raise ConfigError("controller", f"plant {plant.name} has no input to "
+                                  "control", "controller=none")
+            ctrl = self.controller
+            _check_indices("controller", "reads measured channel", ctrl.reads_outputs, ny,
+                           plant.output_names)
+            est = [plant.state_names[i] for i in self.observers[k].estimated_states]
+            _check_indices("controller", f"reads estimate entry of observer "
+                           f"{self.observers[k].name}:", ctrl.reads_estimate, len(est), est)
 
     @property
     def nz(self) -> int:
@@ -65,7 +105,8 @@ class System:
         names = [o.name for o in self.observers]
         wanted = self.controller.observer or names[0]
         if wanted not in names:
-            raise ValueError(f"controller.observer: '{wanted}' is not one of {names}")
+            raise ConfigError("controller.observer", f"'{wanted}' is not an observer",
+                              ", ".join(names))
         return names.index(wanted)
 
     def z0(self) -> np.ndarray:
@@ -84,6 +125,17 @@ class System:
     def estimate_map(self) -> np.ndarray:
         """Plant state index estimated by each column of xh."""
         return np.array([i for o in self.observers for i in o.estimated_states], dtype=np.int64)
+
+    def xh_observer(self) -> np.ndarray:
+        """Index of the observer of each column of xh."""
+        return np.array([k for k, (a, b) in enumerate(self.xh_slices) for _ in range(a, b)],
+                        dtype=np.int64)
+
+    def n_acc(self) -> int:
+        """Length of the kernel's window-metric vector: squared-error integrals (xh columns,
+        then one output error per observer), the max error norm per observer, the window
+        length."""
+        return self.nxh + 2 * len(self.observers) + 1
 
     def yhat_columns(self) -> np.ndarray:
         """Column of xh holding each observer's estimate of the measured state (or -1)."""

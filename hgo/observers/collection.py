@@ -46,6 +46,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from hgo.components import Observer
+from hgo.errors import as_floats
 
 SCALINGS = {"constant": 0.0, "high_gain": 1.0}
 HEAD = 6  # N, n, p1, p2, b, q
@@ -119,32 +120,34 @@ def sp_collection(name: str, N: int = 3, K: Sequence[float] = (2.0, 2.0),
                   c: Sequence[float] | None = None) -> Observer:
     """Build the collection (21); every parameter is checked before any integration."""
     n = len(K)
-    _check(n >= 1, f"observer {name}: K must have n >= 1 entries")
-    _check(int(N) == N and N >= 1, f"observer {name}.N must be an integer >= 1, got {N}")
+    _check(n >= 1, f"observer.{name}: K must have n >= 1 entries")
+    _check(int(N) == N and N >= 1, f"observer.{name}.N must be an integer >= 1, got {N}")
     N = int(N)
-    M = np.zeros((n, n)) if M is None else np.asarray(M, float)
-    c = np.zeros(n) if c is None else np.asarray(c, float)
-    _check(len(xhat0) == n, f"observer {name}.xhat0 must have n={n} entries, got {len(xhat0)}")
+    M = np.zeros((n, n)) if M is None else as_floats(f"observer.{name}.M", M, (n, n))
+    c = np.zeros(n) if c is None else as_floats(f"observer.{name}.c", c, (n,))
+    if xhat0_copies is not None:
+        as_floats(f"observer.{name}.xhat0_copies", xhat0_copies, (N, n))
+    _check(len(xhat0) == n, f"observer.{name}.xhat0 must have n={n} entries, got {len(xhat0)}")
     _check(spread is None or len(spread) == n,
-           f"observer {name}.spread must have n={n} entries")
+           f"observer.{name}.spread must have n={n} entries")
     x0 = initial_states(N, xhat0, spread, xhat0_copies)
-    _check(x0.shape == (N, n), f"observer {name}.xhat0_copies must be {N} rows of {n} "
+    _check(x0.shape == (N, n), f"observer.{name}.xhat0_copies must be {N} rows of {n} "
            f"entries, got shape {x0.shape}")
     if N > 1:
         _check(len({tuple(row) for row in x0.tolist()}) == N,
-               f"observer {name}: copies must start apart (xhat0_copies or spread), "
+               f"observer.{name}: copies must start apart (xhat0_copies or spread), "
                "otherwise they coincide for all t")
-    _check(len(kappa) == n, f"observer {name}.kappa must have n={n} entries")
+    _check(len(kappa) == n, f"observer.{name}.kappa must have n={n} entries")
     _check(kbar_scaling in SCALINGS,
-           f"observer {name}.kbar_scaling: '{kbar_scaling}' not in {sorted(SCALINGS)}")
-    _check(M.shape == (n, n), f"observer {name}.M must be {n}x{n}, got {M.shape}")
-    _check(np.allclose(M, np.tril(M)), f"observer {name}.M must be lower triangular (form (3))")
-    _check(c.shape == (n,), f"observer {name}.c must have n={n} entries")
-    _check(r0 >= 1, f"observer {name}.r0 must be >= 1 (Sanfelice & Praly, Theorem 2.2 C), "
+           f"observer.{name}.kbar_scaling: '{kbar_scaling}' not in {sorted(SCALINGS)}")
+    _check(M.shape == (n, n), f"observer.{name}.M must be {n}x{n}, got {M.shape}")
+    _check(np.allclose(M, np.tril(M)), f"observer.{name}.M must be lower triangular (form (3))")
+    _check(c.shape == (n,), f"observer.{name}.c must have n={n} entries")
+    _check(r0 >= 1, f"observer.{name}.r0 must be >= 1 (Sanfelice & Praly, Theorem 2.2 C), "
            f"got {r0}")
-    _check(p1 > 0, f"observer {name}.p1 must be > 0, got {p1}")
-    _check(p2 > 0, f"observer {name}.p2 must be > 0, got {p2}")
-    _check(0 < b < 0.5, f"observer {name}.b must be in (0, 1/2), got {b}")
+    _check(p1 > 0, f"observer.{name}.p1 must be > 0, got {p1}")
+    _check(p2 > 0, f"observer.{name}.p2 must be > 0, got {p2}")
+    _check(0 < b < 0.5, f"observer.{name}.b must be in (0, 1/2), got {b}")
     p = np.concatenate([[N, n, p1, p2, b, SCALINGS[kbar_scaling]], np.asarray(K, float),
                         np.asarray(kappa, float), M.ravel(), c])
     z0 = np.concatenate([np.append(row, r0) for row in x0])

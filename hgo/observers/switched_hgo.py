@@ -171,11 +171,11 @@ def _check(cond: bool, message: str) -> None:
 
 
 def _check_alpha(name: str, key: str, alpha: np.ndarray, r: int) -> None:
-    _check(alpha.shape == (r,), f"observer {name}.{key} must have r={r} entries, "
+    _check(alpha.shape == (r,), f"observer.{name}.{key} must have r={r} entries, "
            f"got {alpha.size}")
-    _check(bool(np.all(np.isfinite(alpha))), f"observer {name}.{key} must be finite")
+    _check(bool(np.all(np.isfinite(alpha))), f"observer.{name}.{key} must be finite")
     roots = np.roots(np.concatenate([[1.0], alpha]))
-    _check(bool(np.all(roots.real < 0)), f"observer {name}.{key}: the roots of "
+    _check(bool(np.all(roots.real < 0)), f"observer.{name}.{key}: the roots of "
            f"s^r + alpha_1 s^(r-1) + ... + alpha_r (Ahrens & Khalil (10)) must have negative "
            f"real parts, got {np.round(roots, 6).tolist()}")
 
@@ -200,12 +200,12 @@ def switched_hgo(name: str, alpha1: Sequence[float], eps1: float,
     _check(isinstance(name, str) and name != "", "observer name must be a non-empty string")
     a1 = np.atleast_1d(np.asarray(alpha1, float))
     r = a1.size
-    _check(r >= 1, f"observer {name}.alpha1 must have r >= 1 entries")
+    _check(r >= 1, f"observer.{name}.alpha1 must have r >= 1 entries")
     _check_alpha(name, "alpha1", a1, r)
-    _check(math.isfinite(eps1) and eps1 > 0, f"observer {name}.eps1 must be in (0, inf), "
+    _check(math.isfinite(eps1) and eps1 > 0, f"observer.{name}.eps1 must be in (0, inf), "
            f"got {eps1}")
     if eps2 is None:
-        _check(alpha2 is None, f"observer {name}.alpha2 given without eps2: a switched "
+        _check(alpha2 is None, f"observer.{name}.alpha2 given without eps2: a switched "
                "observer needs both (or neither, for a fixed gain)")
         n_gains, a2, e2 = 1, a1, float(eps1)
     else:
@@ -213,21 +213,21 @@ def switched_hgo(name: str, alpha1: Sequence[float], eps1: float,
         a2 = a1 if alpha2 is None else np.atleast_1d(np.asarray(alpha2, float))
         _check_alpha(name, "alpha2", a2, r)
         e2 = float(eps2)
-        _check(math.isfinite(e2) and e2 >= eps1, f"observer {name}.eps2 must be in "
+        _check(math.isfinite(e2) and e2 >= eps1, f"observer.{name}.eps2 must be in "
                f"[eps1={eps1}, inf) (Ahrens & Khalil (28): 0 < eps1 < eps2), got {eps2}")
-    _check(math.isfinite(delta) and delta > 0, f"observer {name}.delta must be in (0, inf), "
+    _check(math.isfinite(delta) and delta > 0, f"observer.{name}.delta must be in (0, inf), "
            f"got {delta}")
-    _check(math.isfinite(T_d) and T_d >= 0, f"observer {name}.T_d must be in [0, inf), "
+    _check(math.isfinite(T_d) and T_d >= 0, f"observer.{name}.T_d must be in [0, inf), "
            f"got {T_d}")
-    _check(saturation > 0, f"observer {name}.saturation must be in (0, inf] (inf: none), "
+    _check(saturation > 0, f"observer.{name}.saturation must be in (0, inf] (inf: none), "
            f"got {saturation}")
-    _check(len(xhat0) == r, f"observer {name}.xhat0 must have r={r} entries, "
+    _check(len(xhat0) == r, f"observer.{name}.xhat0 must have r={r} entries, "
            f"got {len(xhat0)}")
     m = np.asarray(model, float)
-    _check(m.shape == (r,), f"observer {name}.model must have r={r} entries "
+    _check(m.shape == (r,), f"observer.{name}.model must have r={r} entries "
            f"(m_1..m_r of phi0), got {m.size}")
     _check(isinstance(w_index, (int, np.integer)) and w_index >= -1,
-           f"observer {name}.w_index must be an output channel index >= 0, or -1 for none, "
+           f"observer.{name}.w_index must be an output channel index >= 0, or -1 for none, "
            f"got {w_index}")
     h1 = a1 / float(eps1) ** np.arange(1, r + 1)
     h2 = a2 / e2 ** np.arange(1, r + 1)
@@ -237,7 +237,10 @@ def switched_hgo(name: str, alpha1: Sequence[float], eps1: float,
                          w_index, input_gain, eps1, e2], a1, a2, m, h1, h2, [rho1, rho2]])
     rho = max(rho1, rho2)
     d0 = np.array([1.0, eps1, -1.0, 0.0, 0.0, -1.0])
+    uses_w = w_index >= 0 and input_gain != 0.0  # phi0's b0 w u term reads y[w_index], u[0]
     return Observer(name=name, state_names=[f"xhat{i + 1}" for i in range(r)],
                     disc_names=list(DISC_NAMES), estimated_states=list(range(r)),
                     z0=np.asarray(xhat0, float), d0=d0, p=p, f=f, estimate=estimate,
-                    update=update, spectral_radius=rho)
+                    update=update, spectral_radius=rho,
+                    reads_outputs=[0, w_index] if uses_w else [0],
+                    reads_inputs=[0] if uses_w else [])

@@ -29,6 +29,7 @@ import numpy as np
 
 from hgo.components import Observer
 from hgo.engine.jit import kernel_helper
+from hgo.errors import as_floats
 
 LAWS = {"constant": 0, "sign_indefinite": 1, "dead_zone": 2}
 
@@ -92,20 +93,20 @@ def triangular_hgo(name: str, K: Sequence[float], xhat0: Sequence[float], r0: fl
                    c: Sequence[float] | None = None) -> Observer:
     """Build the observer; every parameter is checked before any integration."""
     n = len(K)
-    M = np.zeros((n, n)) if M is None else np.asarray(M, float)
-    c = np.zeros(n) if c is None else np.asarray(c, float)
-    _check(n >= 1, f"observer {name}: K must have n >= 1 entries")
-    _check(law in LAWS, f"observer {name}.law: '{law}' not in {sorted(LAWS)}")
-    _check(len(xhat0) == n, f"observer {name}.xhat0 must have n={n} entries, got {len(xhat0)}")
-    _check(M.shape == (n, n), f"observer {name}.M must be {n}x{n}, got {M.shape}")
-    _check(np.allclose(M, np.tril(M)), f"observer {name}.M must be lower triangular (form (3))")
-    _check(c.shape == (n,), f"observer {name}.c must have n={n} entries")
-    _check(r0 >= 1, f"observer {name}.r0 must be >= 1 (Sanfelice & Praly, Theorem 2.2 C), "
+    M = np.zeros((n, n)) if M is None else as_floats(f"observer.{name}.M", M, (n, n))
+    c = np.zeros(n) if c is None else as_floats(f"observer.{name}.c", c, (n,))
+    _check(n >= 1, f"observer.{name}: K must have n >= 1 entries")
+    _check(law in LAWS, f"observer.{name}.law: '{law}' not in {sorted(LAWS)}")
+    _check(len(xhat0) == n, f"observer.{name}.xhat0 must have n={n} entries, got {len(xhat0)}")
+    _check(M.shape == (n, n), f"observer.{name}.M must be {n}x{n}, got {M.shape}")
+    _check(np.allclose(M, np.tril(M)), f"observer.{name}.M must be lower triangular (form (3))")
+    _check(c.shape == (n,), f"observer.{name}.c must have n={n} entries")
+    _check(r0 >= 1, f"observer.{name}.r0 must be >= 1 (Sanfelice & Praly, Theorem 2.2 C), "
            f"got {r0}")
     if law != "constant":
-        _check(p1 > 0, f"observer {name}.p1 must be > 0, got {p1}")
-        _check(p2 > 0, f"observer {name}.p2 must be > 0, got {p2}")
-        _check(0 < b < 0.5, f"observer {name}.b must be in (0, 1/2), got {b}")
+        _check(p1 > 0, f"observer.{name}.p1 must be > 0, got {p1}")
+        _check(p2 > 0, f"observer.{name}.p2 must be > 0, got {p2}")
+        _check(0 < b < 0.5, f"observer.{name}.b must be in (0, 1/2), got {b}")
     p = np.concatenate([[n, LAWS[law], p1, p2, b], np.asarray(K, float), M.ravel(), c])
     return Observer(name=name, state_names=[f"xhat{i + 1}" for i in range(n)] + ["r"],
                     disc_names=[], estimated_states=list(range(n)),

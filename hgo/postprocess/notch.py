@@ -153,14 +153,14 @@ def notch(w0: float | None = None, period: float = 2.23, phi1: float = 0.0, phi2
     """Factory: centre w0 (rad/s), or 2 pi / period when w0 is None (paper: 2.23 s)."""
     if w0 is None:
         if not period > 0:
-            raise ValueError(f"postprocess notch.period must be > 0, got {period}")
+            raise ValueError(f"postprocess.notch.period must be > 0, got {period}")
         w0 = 2 * math.pi / period
     if not w0 > 0:
-        raise ValueError(f"postprocess notch.w0 must be > 0, got {w0}")
+        raise ValueError(f"postprocess.notch.w0 must be > 0, got {w0}")
     if phi1 < 0 or not phi2 > 0:
-        raise ValueError(f"postprocess notch: need phi1 >= 0 and phi2 > 0, got {phi1}, {phi2}")
+        raise ValueError(f"postprocess.notch: need phi1 >= 0 and phi2 > 0, got {phi1}, {phi2}")
     if method not in ("foh", "zoh"):
-        raise ValueError(f"postprocess notch.method: '{method}' not in ['foh', 'zoh']")
+        raise ValueError(f"postprocess.notch.method: '{method}' not in ['foh', 'zoh']")
     if init not in ("steady", "zero"):
-        raise ValueError(f"postprocess notch.init: '{init}' not in ['steady', 'zero']")
+        raise ValueError(f"postprocess.notch.init: '{init}' not in ['steady', 'zero']")
     return Notch(float(w0), float(phi1), float(phi2), method, init)

@@ -25,6 +25,7 @@ import numpy as np
 
 from hgo.engine.simulate import Trajectory
 from hgo.engine.system import System
+from hgo.errors import ConfigError
 from hgo.postprocess import PostOutput
 
 
@@ -112,6 +113,12 @@ class Oscillation:
     window: float | None = None  # seconds; None: the run's metrics window
     spectrum: bool = True
 
+    def check(self, system: System, solver, key: str) -> None:
+        """The window lies inside the run (a longer one would be clipped silently)."""
+        if self.window is not None and self.window > solver.t_end:
+            raise ConfigError(f"{key}.window", f"{self.window} s is longer than the run "
+                              f"(solver.t_end = {solver.t_end})", f"(0, {solver.t_end}]")
+
     def apply(self, system: System, traj: Trajectory) -> PostOutput:
         sl = window_slice(traj, self.window)
         rows = []
@@ -124,5 +131,5 @@ class Oscillation:
 def oscillation(window: float | None = None, spectrum: bool = True) -> Oscillation:
     """Factory for the ``postprocess`` group."""
     if window is not None and not window > 0:
-        raise ValueError(f"postprocess oscillation.window must be > 0, got {window}")
+        raise ValueError(f"postprocess.oscillation.window must be > 0, got {window}")
     return Oscillation(window, spectrum)

@@ -18,6 +18,7 @@ A YAML option extends one of them through its defaults list, e.g.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 from hydra.core.config_store import ConfigStore
 
@@ -31,14 +32,14 @@ class SPCollectionConf:
     K: list[float] = field(default_factory=lambda: [2.0, 2.0])
     xhat0: list[float] = field(default_factory=lambda: [3.0, 3.0])
     spread: list[float] | None = field(default_factory=lambda: [1.0, 0.0])
-    xhat0_copies: list[list[float]] | None = None
+    xhat0_copies: list[Any] | None = None  # rows of numbers
     r0: float = 1.0
     p1: float = 4 / 3
     p2: float = 1.5
     b: float = 0.28
     kappa: list[float] = field(default_factory=lambda: [0.1, 0.1])
     kbar_scaling: str = "high_gain"
-    M: list[list[float]] | None = None
+    M: list[Any] | None = None  # rows of numbers (ints accepted)
     c: list[float] | None = None
 
 
@@ -69,7 +70,7 @@ class SPBoundsConf:
     """Sanfelice & Praly (8)-(15); K, b default to the observer's, gamma/L to the plant's."""
 
     _target_: str = "hgo.papers.sanfelice_praly.postprocess.sp_bounds"
-    P: list[list[float]] = field(default_factory=lambda: [[1.0, -0.5], [-0.5, 0.5]])
+    P: list[Any] = field(default_factory=lambda: [[1.0, -0.5], [-0.5, 0.5]])
     d0: float = 0.95
     d1: float = 3.0
     M_inf: float = 0.0

@@ -82,8 +82,17 @@ class SPBounds:
             gamma, L = sp_linear.mismatch_constants(*system.plant.p[:2])
             return (gamma if self.gamma is None else self.gamma,
                     L if self.L is None else self.L)
-        raise ValueError("postprocess sp_bounds: give gamma and L (Lemma 2.1) for plant "
+        raise ValueError("postprocess.sp_bounds: give gamma and L (Lemma 2.1) for plant "
                          f"'{system.plant.name}'")
+
+    def check(self, system: System, solver, key: str) -> None:  # noqa: ARG002
+        """What apply would refuse, refused before the run: the mismatch constants and the
+        agreement of K, b, P with every law-(6) observer."""
+        self._mismatch(system)
+        for obs in system.observers:
+            par = law6_parameters(obs)
+            if par is not None:
+                self._check_agrees(obs.name, par)
 
     def apply(self, system: System, traj: Trajectory) -> PostOutput:
         gamma, L = self._mismatch(system)
@@ -144,14 +153,15 @@ class SPBounds:
         return out
 
     def _check_agrees(self, name: str, par: dict) -> None:
-        if self.K is not None and not np.allclose(self.K, par["K"]):
-            raise ValueError(f"postprocess sp_bounds.K = {list(self.K)} differs from observer "
+        if self.K is not None and (self.K.shape != np.shape(par["K"])
+                                   or not np.allclose(self.K, par["K"])):
+            raise ValueError(f"postprocess.sp_bounds.K = {list(self.K)} differs from observer "
                              f"{name}'s K~ = {list(par['K'])}")
         if self.b is not None and not math.isclose(self.b, par["b"]):
-            raise ValueError(f"postprocess sp_bounds.b = {self.b} differs from observer "
+            raise ValueError(f"postprocess.sp_bounds.b = {self.b} differs from observer "
                              f"{name}'s b = {par['b']}")
         if self.P.shape != (par["n"], par["n"]):
-            raise ValueError(f"postprocess sp_bounds.P must be {par['n']}x{par['n']} for "
+            raise ValueError(f"postprocess.sp_bounds.P must be {par['n']}x{par['n']} for "
                              f"observer {name}")
 
 
@@ -162,11 +172,11 @@ def sp_bounds(P: Sequence[Sequence[float]] = PAPER_P, d0: float = 0.95, d1: floa
     """Factory for the ``postprocess`` group (defaults: Sanfelice & Praly Section 3)."""
     P = np.asarray(P, float)
     if P.ndim != 2 or P.shape[0] != P.shape[1] or not np.allclose(P, P.T):
-        raise ValueError("postprocess sp_bounds.P must be a symmetric square matrix")
+        raise ValueError("postprocess.sp_bounds.P must be a symmetric square matrix")
     if not (d0 > 0 and d1 > 0):
-        raise ValueError(f"postprocess sp_bounds: d0, d1 must be > 0 (8), got {d0}, {d1}")
+        raise ValueError(f"postprocess.sp_bounds: d0, d1 must be > 0 (8), got {d0}, {d1}")
     if M_inf is None or not M_inf >= 0:
-        raise ValueError(f"postprocess sp_bounds.M_inf must be >= 0, got {M_inf}")
+        raise ValueError(f"postprocess.sp_bounds.M_inf must be >= 0, got {M_inf}")
     arr = (lambda v: None if v is None else np.asarray(v, float))  # noqa: E731
     return SPBounds(P, float(d0), float(d1), float(M_inf), arr(K),
                     None if b is None else float(b), arr(gamma), arr(L))

@@ -1,0 +1,170 @@
+"""One Hydra job of ``experiments/run.py``, with errors as one line on stderr.
+
+:func:`run_job` runs a composed config (a single run or an ensemble) into its run
+directory; an error becomes ``error: <one line>`` (:func:`hgo.errors.one_line`) and an
+exit code: 2 for a configuration error (its run directory, holding nothing but Hydra's
+own files, is removed), 1 for a run that failed, 130 for an interrupted one. The other
+jobs of a multirun still run. :func:`one_line_errors` gives Hydra's own errors
+(composition, schema, YAML, override syntax) the same one line, and sets the exit code
+when the application ends. ``HYDRA_FULL_ERROR=1`` restores Hydra's full tracebacks.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+import os
+import shutil
+import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+from omegaconf import DictConfig, OmegaConf
+
+from hgo.errors import is_config_error, one_line
+
+log = logging.getLogger(__name__)
+EXIT_CONFIG, EXIT_FAILED, EXIT_INTERRUPTED = 2, 1, 130
+_EXIT_CODES: list[int] = []  # of the jobs of this process that did not succeed
+_HYDRA_FILES = {".hydra"}
+
+
+def full_error() -> bool:
+    """``HYDRA_FULL_ERROR=1``: show tracebacks, as Hydra does."""
+    return os.environ.get("HYDRA_FULL_ERROR", "") == "1"
+
+
+def report(err: BaseException, code: int) -> None:
+    """Write ``error: <one line>`` to stderr and remember the job's exit code."""
+    sys.stderr.write(f"error: {one_line(err)}\n")
+    sys.stderr.flush()
+    _EXIT_CODES.append(code)
+
+
+def remove_if_empty(out_dir: str | Path) -> None:
+    """Remove a run directory holding only Hydra's files (``.hydra/``, ``*.log``)."""
+    path = Path(out_dir)
+    if not path.is_dir():
+        return
+    if all(p.name in _HYDRA_FILES or p.suffix == ".log" for p in path.iterdir()):
+        shutil.rmtree(path, ignore_errors=True)
+        parent = path.parent  # outputs/<run_name>/ of a single run, if now empty
+        if parent.name not in ("", ".") and not any(parent.iterdir()):
+            parent.rmdir()
+
+
+def check_config(cfg: DictConfig) -> None:
+    """Everything a run checks before integrating, without integrating (build-only)."""
+    from hgo.ensemble_runner import prepare_ensemble
+    from hgo.runner import build
+
+    if cfg.ensemble.size != 0:
+        prepare_ensemble(cfg)
+    else:
+        build(cfg)
+
+
+DONE = ".hgo_done"  # written last into a run directory: the hash of the job's config
+
+
+def config_hash(cfg: DictConfig) -> str:
+    """Hash of the composed job config (without Hydra's node and ``resume``), resolved."""
+    from hgo.runner import job_config_yaml
+
+    job = OmegaConf.create({k: cfg._get_node(k) for k in cfg if k not in ("hydra", "resume")})
+    return hashlib.sha256(job_config_yaml(job).encode()).hexdigest()
+
+
+def is_complete(cfg: DictConfig, out_dir: str | Path) -> bool:
+    """Whether ``out_dir`` holds the complete outputs of a successful run of ``cfg``: the
+    marker names this config's hash and every file the run wrote is still there."""
+    out_dir = Path(out_dir)
+    try:
+        digest, *files = (out_dir / DONE).read_text().split("\n")
+    except OSError:
+        return False
+    return digest == config_hash(cfg) and all((out_dir / f).is_file() for f in files if f)
+
+
+def mark_complete(cfg: DictConfig, out_dir: str | Path) -> None:
+    """Record that ``out_dir`` holds the complete outputs of ``cfg`` (the config's hash and
+    the files written, not Hydra's); atomic, written last."""
+    from hgo.recording import atomic_output
+
+    out_dir = Path(out_dir)
+    files = sorted(p.name for p in out_dir.iterdir() if p.is_file() and p.suffix != ".log"
+                   and not p.name.startswith("."))
+    with atomic_output(out_dir / DONE) as partial:
+        partial.write_text("\n".join([config_hash(cfg), *files]) + "\n")
+
+
+def run_job(cfg: DictConfig, out_dir: str | Path) -> int:
+    """Run ``cfg`` into ``out_dir``; returns the exit code (0: ok), errors reported as one
+    line (see module doc). Ctrl-C ends the process (exit 130) after the one line: a sweep
+    stops there; the interrupted job keeps its outputs (``*.partial`` if mid-write).
+
+    ``resume=true``: a job whose directory already holds the complete outputs of the same
+    composed config (:func:`is_complete`) is skipped; any other is run (again)."""
+    from hgo.ensemble_runner import run_ensemble
+    from hgo.runner import SimulationFailed, run
+
+    if cfg.get("resume", False) and is_complete(cfg, out_dir):
+        log.info("resume: %s already holds this job's complete outputs; skipped", out_dir)
+        return 0
+    try:
+        (Path(out_dir) / DONE).unlink(missing_ok=True)
+        if cfg.ensemble.size != 0:
+            run_ensemble(cfg, out_dir)
+        else:
+            run(cfg, out_dir)
+        mark_complete(cfg, out_dir)
+    except KeyboardInterrupt as err:
+        if full_error():
+            raise
+        report(err if str(err) else KeyboardInterrupt("interrupted (Ctrl-C) while writing; "
+                                                      f"incomplete files in {out_dir} end in "
+                                                      ".partial"), EXIT_INTERRUPTED)
+        raise SystemExit(EXIT_INTERRUPTED) from None
+    except SimulationFailed as err:
+        if full_error():
+            raise
+        report(err, EXIT_FAILED)
+        return EXIT_FAILED
+    except OSError as err:  # a full disk, a folder that cannot be written
+        if full_error():
+            raise
+        report(err, EXIT_FAILED)
+        return EXIT_FAILED
+    except Exception as err:
+        if full_error() or not is_config_error(err):
+            raise
+        remove_if_empty(out_dir)
+        report(err, EXIT_CONFIG)
+        return EXIT_CONFIG
+    return 0
+
+
+@contextmanager
+def one_line_errors() -> Iterator[None]:
+    """Hydra's errors as one line; exit with the worst code of the jobs at the end."""
+    import hydra._internal.utils as hydra_utils
+
+    original = hydra_utils.run_and_report
+
+    def run_and_report(func):
+        if full_error():
+            return original(func)
+        try:
+            return func()
+        except Exception as err:
+            sys.stderr.write(f"error: {one_line(err)}\n")
+            sys.exit(EXIT_CONFIG if is_config_error(err) else EXIT_FAILED)
+
+    hydra_utils.run_and_report = run_and_report
+    try:
+        yield
+    finally:
+        hydra_utils.run_and_report = original
+    if _EXIT_CODES:
+        sys.exit(max(_EXIT_CODES))

@@ -1,0 +1,302 @@
+"""Faults: damaged kernel caches, unwritable folders, interrupts, hangs and full disks.
+
+Each test names the fault it injects and what the user gets instead of a crash, a hang
+or a file that looks complete.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+RUN = textwrap.dedent('''
+    import warnings
+    warnings.simplefilter("always")
+    from hgo.engine.simulate import SolverSettings, no_noise, simulate
+    from hgo.engine.system import System
+    from hgo.observers.triangular import triangular_hgo
+    from hgo.plants.sp_linear import sp_linear_plant
+    obs = triangular_hgo("o", K=[2, 2], xhat0=[0, 0], law="constant")
+    solver = SolverSettings(t_end=1.0, dt_out=0.5, method="rk4")
+    tr = simulate(System(sp_linear_plant(), [obs]), solver, no_noise(1))
+    print(tr.z[-1, 2])
+''')
+ROOT = Path(__file__).parents[1]
+
+
+def _kernel_run(tmp_path: Path, cache: Path) -> subprocess.CompletedProcess:
+    env = {**os.environ, "HGO_CACHE_DIR": str(cache), "NUMBA_CACHE_DIR": str(tmp_path / "nb"),
+           "PYTHONPATH": str(ROOT)}
+    return subprocess.run([sys.executable, "-c", RUN], cwd=tmp_path, env=env, check=True,
+                          capture_output=True, text=True, timeout=300)
+
+
+def test_damaged_kernel_cache_is_rebuilt_with_one_warning(tmp_path):
+    """A truncated kernel module and truncated numba cache files (index and data) give one
+    warning each run and the same result; the run after the repair is silent."""
+    cache = tmp_path / "kernels"
+    ref = _kernel_run(tmp_path, cache)
+    value = float(ref.stdout.split()[-1])
+    (entry,) = cache.glob("hgo_kernel_*.py")
+    entry.write_text(entry.read_text()[:200])  # truncated kernel text
+    out = _kernel_run(tmp_path, cache)
+    assert float(out.stdout.split()[-1]) == value
+    assert out.stderr.count("RuntimeWarning") == 1 and "corrupted" in out.stderr
+    damaged = list((tmp_path / "nb").rglob("*.nb[ic]"))
+    assert damaged
+    for path in damaged:  # every numba cache file truncated
+        path.write_bytes(path.read_bytes()[:10])
+    out = _kernel_run(tmp_path, cache)
+    assert float(out.stdout.split()[-1]) == value
+    assert out.stderr.count("RuntimeWarning") == 1 and "damaged" in out.stderr, out.stderr
+    out = _kernel_run(tmp_path, cache)
+    assert float(out.stdout.split()[-1]) == value and "Warning" not in out.stderr
+
+
+def test_unwritable_kernel_cache_falls_back_to_a_private_folder(tmp_path):
+    """HGO_CACHE_DIR below a regular file cannot be created: one warning, same result."""
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    out = _kernel_run(tmp_path, blocker / "kernels")
+    assert out.stderr.count("RuntimeWarning") == 1 and "not writable" in out.stderr
+    assert float(out.stdout.split()[-1]) != 0.0
+
+
+# --- runs that must stop: NaN, step limit, Ctrl-C ------------------------------------
+
+SHORT = ["experiment=sp_oscillation", "postprocess=none", "solver.t_end=2",
+         "metrics.window=1"]
+
+
+def _system_and_noise():
+    from hgo.engine.simulate import no_noise
+    from hgo.engine.system import System
+    from hgo.observers.triangular import triangular_hgo
+    from hgo.plants.sp_linear import sp_linear_plant
+
+    obs = triangular_hgo("o", K=[2, 2], xhat0=[0, 0], law="constant")
+    return System(sp_linear_plant(), [obs]), no_noise(1)
+
+
+def test_nan_parameter_ends_the_adaptive_run_as_failed():
+    """A NaN parameter made dopri5 reject steps forever (h = NaN); now: status 4, t = 0."""
+    import numpy as np
+
+    from hgo.engine.simulate import STATUS, SolverSettings, simulate
+
+    system, noise = _system_and_noise()
+    params = system.params()
+    params[0] = np.nan  # nu1 of the plant
+    for method in ("dopri5", "dop853"):
+        tr = simulate(system, SolverSettings(t_end=1.0, dt_out=0.5, method=method), noise,
+                      params=params)
+        assert tr.status == 4 and "non-finite step size" in STATUS[tr.status]
+        assert tr.t_stop == 0.0
+
+
+def test_step_limit_ends_the_run_as_failed():
+    """solver.max_steps bounds every integrator (here 50 steps of a 1000-step run)."""
+    from hgo.engine.simulate import SolverSettings, simulate
+
+    system, noise = _system_and_noise()
+    for method in ("rk4", "dopri5"):
+        solver = SolverSettings(t_end=1.0, dt_out=0.5, method=method, h_max=1e-3,
+                                max_steps=50)
+        tr = simulate(system, solver, noise)
+        assert tr.status == 5 and 0 < tr.t_stop < 0.1, (method, tr.t_stop)
+
+
+def _run_cli(args: list[str], tmp_path: Path) -> subprocess.Popen:
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    env.pop("HYDRA_FULL_ERROR", None)
+    return subprocess.Popen([sys.executable, str(ROOT / "experiments" / "run.py"), *args],
+                            cwd=tmp_path, env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+
+
+def test_ctrl_c_stops_a_long_compiled_integration_within_a_second(tmp_path):
+    """SIGINT 1 s into a 1e8-step integration: exit 130 within ~1 s, one error line, a
+    complete recording up to the stop marked interrupted in /run/status and metrics.csv."""
+    import signal
+    import time
+
+    import pandas as pd
+
+    from hgo.recording import read_recording
+
+    warm = _run_cli([*SHORT, f"hydra.run.dir={tmp_path}/warm"], tmp_path)  # compile
+    assert warm.wait(timeout=300) == 0, warm.stderr.read()
+    run_dir = tmp_path / "long"
+    proc = _run_cli(["experiment=sp_oscillation", "postprocess=none", "solver.t_end=100000",
+                     "solver.dt_out=1", "solver.h_max=0.001", "metrics.window=5",
+                     f"hydra.run.dir={run_dir}"], tmp_path)
+    for line in proc.stdout:
+        if "integrating" in line:
+            break
+    time.sleep(1.0)
+    t0 = time.perf_counter()
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    elapsed = time.perf_counter() - t0
+    assert proc.returncode == 130, err
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: ") and "interrupted" in lines[0]
+    assert elapsed < 3.0, f"stopped {elapsed:.2f} s after Ctrl-C"
+    table = pd.read_csv(run_dir / "metrics.csv")
+    assert set(table.status) == {"interrupted"}
+    t_stop = float(table.t_stop.iloc[0])
+    assert 0 < t_stop < 100000
+    rec = read_recording(run_dir / "recording.rrd")
+    assert rec["sim_time"][-1] <= t_stop and len(rec["sim_time"]) > 1
+    assert not list(run_dir.glob("*.partial"))
+
+
+# --- writes that do not finish -------------------------------------------------------
+
+
+def _interrupt_in(monkeypatch, target: str, exc: BaseException, after: int = 1) -> None:
+    """Make ``target`` (module:function) raise ``exc`` on its call number ``after + 1``."""
+    import importlib
+
+    module_name, name = target.split(":")
+    module = importlib.import_module(module_name)
+    original = getattr(module, name)
+    calls = {"n": 0}
+
+    def wrapped(*args, **kwargs):
+        calls["n"] += 1
+        if calls["n"] > after:
+            raise exc
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(module, name, wrapped)
+
+
+def test_ctrl_c_while_writing_leaves_only_a_partial_recording(tmp_path, monkeypatch):
+    """KeyboardInterrupt in the middle of the recording (where SIGINT would raise it):
+    no recording.rrd, a recording.rrd.partial that read_recording calls truncated, no
+    metrics.csv; the job ends with exit 130."""
+    import pytest
+
+    from hgo.config import compose as compose_config
+    from hgo.job import run_job
+    from hgo.recording import RecordingIncomplete, read_recording
+
+    cfg = compose_config(SHORT, tmp_path)
+    _interrupt_in(monkeypatch, "hgo.recording:_send_series", KeyboardInterrupt())
+    with pytest.raises(SystemExit) as ended:
+        run_job(cfg, tmp_path)
+    assert ended.value.code == 130
+    assert not (tmp_path / "recording.rrd").exists()
+    assert not (tmp_path / "metrics.csv").exists()
+    with pytest.raises(RecordingIncomplete, match="truncated"):
+        read_recording(tmp_path / "recording.rrd.partial")
+    with pytest.warns(RuntimeWarning, match="truncated"):
+        assert read_recording(tmp_path / "recording.rrd.partial", allow_incomplete=True)
+
+
+def test_full_disk_fails_the_job_with_one_line_and_no_complete_looking_file(
+        tmp_path, monkeypatch, capsys):
+    """An injected ENOSPC while writing metrics.csv (after the recording): exit code 1,
+    one error line, metrics.csv absent (its .partial left), recording.rrd complete."""
+    import errno
+
+    import pandas as pd
+
+    from hgo.config import compose as compose_config
+    from hgo.job import run_job
+
+    cfg = compose_config(SHORT, tmp_path)
+    full = OSError(errno.ENOSPC, "No space left on device")
+    original = pd.DataFrame.to_csv
+
+    def to_csv(self, path, *args, **kwargs):
+        original(self, path, *args, **kwargs)
+        raise full
+
+    monkeypatch.setattr(pd.DataFrame, "to_csv", to_csv)
+    assert run_job(cfg, tmp_path) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "No space left on device" in err[0]
+    assert not (tmp_path / "metrics.csv").exists()
+    assert (tmp_path / "metrics.csv.partial").exists()
+    assert (tmp_path / "recording.rrd").exists()
+
+
+KILL_WRITER = textwrap.dedent('''
+    import numpy as np, sys
+    from hgo.recording import Series, write_recording
+    n = 3_000_000
+    t = np.arange(n) * 1e-3
+    series = [Series(f"/s{k}", ["a", "b", "c"], np.random.default_rng(k).random((n, 3)))
+              for k in range(8)]
+    write_recording(sys.argv[1], t, series, recording_id="killed")
+''')
+
+
+def test_sigkill_while_writing_leaves_no_complete_looking_file(tmp_path):
+    """SIGKILL as soon as the .partial has data: no recording.rrd; the .partial is
+    refused by read_recording (unreadable or truncated)."""
+    import time
+
+    import pytest
+
+    from hgo.recording import RecordingIncomplete, read_recording
+
+    target = tmp_path / "recording.rrd"
+    partial = tmp_path / "recording.rrd.partial"
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    proc = subprocess.Popen([sys.executable, "-c", KILL_WRITER, str(target)], env=env)
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and proc.poll() is None:
+        if partial.exists() and partial.stat().st_size > 1_000_000:
+            break
+        time.sleep(0.01)
+    proc.kill()
+    proc.wait()
+    assert partial.exists(), "the writer finished before it could be killed"
+    assert not target.exists()
+    with pytest.raises(RecordingIncomplete):
+        read_recording(partial)
+
+
+# --- resume --------------------------------------------------------------------------
+
+
+def test_resume_skips_complete_jobs_and_redoes_the_others(tmp_path):
+    """``resume=true`` skips a job whose directory holds complete outputs of the same
+    composed config; a changed config, a missing file or a failed run is redone."""
+    from hgo.config import compose as compose_config
+    from hgo.job import DONE, is_complete, run_job
+
+    cfg = compose_config([*SHORT, "resume=true"], tmp_path)
+    assert run_job(cfg, tmp_path) == 0 and is_complete(cfg, tmp_path)
+    stamp = (tmp_path / "metrics.csv").stat().st_mtime_ns
+    assert run_job(cfg, tmp_path) == 0
+    assert (tmp_path / "metrics.csv").stat().st_mtime_ns == stamp  # skipped
+    other = compose_config([*SHORT, "resume=true", "seed=1"], tmp_path)
+    assert not is_complete(other, tmp_path)  # another composed config: redone
+    (tmp_path / DONE).unlink()  # e.g. killed before the end: redone
+    assert run_job(cfg, tmp_path) == 0
+    assert (tmp_path / "metrics.csv").stat().st_mtime_ns != stamp
+    assert is_complete(cfg, tmp_path)
+
+
+def test_multirun_resumed_into_its_sweep_directory(tmp_path):
+    """A 2-job sweep, one job's outputs removed: re-run with resume=true into the same
+    hydra.sweep.dir, only that job runs again."""
+    sweep = tmp_path / "sweep"
+    args = ["-m", *SHORT, "seed=0,1", f"hydra.sweep.dir={sweep}", "resume=true"]
+    first = _run_cli(args, tmp_path)
+    assert first.wait(timeout=300) == 0, first.stderr.read()
+    kept = (sweep / "job0" / "metrics.csv").stat().st_mtime_ns
+    (sweep / "job1" / "metrics.csv").unlink()
+    again = _run_cli(args, tmp_path)
+    out, err = again.communicate(timeout=300)
+    assert again.returncode == 0, err
+    assert (sweep / "job0" / "metrics.csv").stat().st_mtime_ns == kept
+    assert (sweep / "job1" / "metrics.csv").exists()
+    assert out.count("skipped") + err.count("skipped") == 1
