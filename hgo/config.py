@@ -81,11 +81,17 @@ class MetricsConf:
 @dataclass
 class EnsembleConf:
     """``size`` members (0: a single run); ``vary``: dotted key -> [low, high] (scalar) or
-    [[low, high], ...] (vector), drawn uniformly with ``seed``."""
+    [[low, high], ...] (vector), drawn uniformly with ``seed``; ``grid``: dotted key ->
+    value list (Cartesian product, ``size`` replicates per point); ``shard``: "i/N" runs
+    the i-th of N blocks of the members; ``reports``: name -> ``_target_`` of
+    ``f(result, out_dir)`` (see :mod:`hgo.ensemble_runner`)."""
 
     size: int = 0
     seed: int = 0
     vary: dict[str, Any] = field(default_factory=dict)
+    grid: dict[str, Any] = field(default_factory=dict)
+    shard: str | None = None
+    reports: dict[str, Any] = field(default_factory=dict)
 
 
 def register_configs() -> None:

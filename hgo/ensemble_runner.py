@@ -1,19 +1,25 @@
-"""An ensemble experiment from a Hydra config: ``ensemble.size`` members in one call.
+"""An ensemble experiment from a Hydra config: many members in one compiled call.
 
-Members differ by the values drawn for ``ensemble.vary`` (dotted config keys -> uniform
-ranges) and by their noise seed (member i uses ``seed + i``, so member 0 is the plain run
-of the config when nothing is varied). All members share one compiled kernel and run in
-parallel (:func:`hgo.engine.simulate.simulate_ensemble`); only the trailing-window
-metrics come back. Outputs in the run directory:
+Members (:func:`hgo.ensemble.plan_members`) are the points of ``ensemble.grid`` (dotted
+keys -> value lists, Cartesian product) times ``ensemble.size`` replicates that differ by
+the values drawn for ``ensemble.vary`` (dotted keys -> uniform ranges) and by their noise
+seed (replicate j uses ``seed + j``: without a grid, member i is the run of seed + i; a
+grid of one replicate reproduces the jobs of the multirun over the same lists).
+``ensemble.shard = "i/N"`` runs the i-th of N blocks of the members. All members share
+one compiled kernel and run in parallel (:func:`hgo.engine.simulate.simulate_ensemble`),
+each with its own RK4 step cap, as its single run. With a ``postprocess`` group the
+members' trajectories are kept and post-processed (the same rows as a single run's
+``metrics.csv``); otherwise only the trailing-window metrics come back. Outputs:
 
-* ``metrics.csv``: one row per (member, observer, quantity) with the drawn values, then
-  aggregate rows (``member = all``): mean (``empirical``), ``std``, ``min``, ``max``,
-  ``n_ok``, ``n_failed``, and ``holds_fraction`` where a bound exists.
-* ``recording.rrd``: the full trajectory of member 0 (a representative run).
+* ``metrics.csv``: one row per (member, observer, quantity) with the member's index and
+  varied values, then aggregate rows (``member = all``): mean (``empirical``), ``std``,
+  ``min``, ``max``, ``n_ok``, ``n_failed``, and ``holds_fraction`` where a bound exists.
+* ``recording.rrd``: the trajectory of member 0 (a representative run; ``recording.mode``).
 * ``ensemble.png``: the distribution of every metric over the members.
+* what each entry of ``ensemble.reports`` (name -> ``_target_`` of ``f(result, out_dir)``)
+  writes: the combined tables and figures of the equivalent multirun's callback.
 
-The ``postprocess`` and ``figures`` of the config need trajectories and are not applied
-(a warning says so).
+The ``figures`` of the config draw one run and are not applied (a warning says so).
 """
 
 from __future__ import annotations
@@ -25,16 +31,19 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from hydra.utils import instantiate
 from omegaconf import DictConfig
 
-from hgo.engine.simulate import STATUS, simulate, simulate_ensemble
+from hgo.engine.simulate import rho_const, simulate, simulate_ensemble
 from hgo.engine.system import System
-from hgo.ensemble import draw_members, member_nodes, stack_members, stiffest_envelope
+from hgo.ensemble import member_nodes, plain_value, plan_members, stack_members
 from hgo.figures.ensemble import metric_histograms
-from hgo.metrics import metric_row, window_means
+from hgo.metrics import metric_rows
 from hgo.noise import NoiseModel
+from hgo.postprocess import PostOutput
 from hgo.recording import write_recording
 from hgo.runner import (
+    _construct,
     _instantiate,
     blueprint,
     build_system,
@@ -51,48 +60,76 @@ CHUNKS = 10  # progress is reported after each tenth of the members
 @dataclass
 class EnsembleResult:
     systems: list[System]
-    draws: dict[str, np.ndarray]
+    draws: dict[str, np.ndarray]  # varied key -> values of the members (grid and drawn)
     acc: np.ndarray
     status: np.ndarray
     t_stop: np.ndarray
     metrics: pd.DataFrame
+    trajectories: list | None = None  # per member, when post-processed
 
 
-def _simulate_chunks(system: System, solver, noise, params, z0, d0) -> dict[str, np.ndarray]:
+def is_ensemble(cfg: DictConfig) -> bool:
+    """True if the config asks for an ensemble (``ensemble.size > 0`` or a grid)."""
+    return int(cfg.ensemble.size) > 0 or bool(cfg.ensemble.get("grid"))
+
+
+def _simulate_chunks(solver, noise, params, z0, d0, systems, record) -> dict:
     """simulate_ensemble in chunks, logging progress (one compiled call per chunk)."""
     n = len(params)
+    rho = np.array([rho_const(s, solver) for s in systems])
     edges = np.unique(np.linspace(0, n, min(CHUNKS, n) + 1).astype(int))
     parts, start = [], time.perf_counter()
     for a, b in zip(edges[:-1], edges[1:], strict=True):
-        parts.append(simulate_ensemble(system, solver, noise[a:b], params[a:b], z0[a:b],
-                                       d0[a:b]))
+        parts.append(simulate_ensemble(systems[0], solver, noise[a:b], params[a:b], z0[a:b],
+                                       d0[a:b], rho=rho[a:b], record=record))
         log.info("ensemble: %d/%d members (%.2f s)", b, n, time.perf_counter() - start)
-    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+    out = {k: np.concatenate([p[k] for p in parts]) for k in ("acc", "status", "t_stop")}
+    if record:
+        out["trajectories"] = [tr for p in parts for tr in p["trajectories"]]
+    return out
 
 
-def _member_rows(systems, draws, out) -> list[dict]:
+def _post(nodes: list, systems: list[System], trajectories: list) -> list[PostOutput]:
+    """Every member's post-processing, in config order (post-processors built once per
+    distinct node)."""
+    built: dict[str, object] = {}
+    outs = []
+    for node, system, traj in zip(nodes, systems, trajectories, strict=True):
+        total = PostOutput()
+        if traj.ok:
+            for name, spec in (node or {}).items():
+                key = f"{name}={spec!r}"
+                if key not in built:
+                    built[key] = _construct(spec)
+                out = built[key].apply(system, traj)
+                total.series += out.series
+                total.rows += [{"postprocess": name, **row} for row in out.rows]
+                total.bounds.update(out.bounds)
+        outs.append(total)
+    return outs
+
+
+def _member_rows(systems, plan, out, posts) -> list[dict]:
     rows = []
     for i, system in enumerate(systems):
-        st = int(out["status"][i])
-        drawn = {k: (v[i].tolist() if v.ndim > 1 else float(v[i])) for k, v in draws.items()}
-        bounds = {o.name: o.bounds for o in system.observers}
-        for (obs, quantity), value in window_means(system, out["acc"][i]).items():
-            value = float(value) if st == 0 else np.nan
-            rows.append({"member": str(i),
-                         **metric_row(obs, quantity, value, bounds[obs].get(quantity)),
-                         "status": "ok" if st == 0 else "failed",
-                         "t_stop": float(out["t_stop"][i]), "message": STATUS[st], **drawn})
+        varied = {k: plain_value(v[i]) for k, v in plan.values.items()}
+        post = posts[i] if posts else PostOutput()
+        for row in metric_rows(system, out["acc"][i], int(out["status"][i]),
+                               float(out["t_stop"][i]), post.bounds, post.rows):
+            rows.append({"member": str(int(plan.index[i])), **row, "seed": plan.seeds[i],
+                         **varied})
     return rows
 
 
 def _aggregate(members: pd.DataFrame) -> pd.DataFrame:
     """Mean and spread of every (observer, quantity) over the members that ran to the end."""
     rows = []
-    for (obs, quantity), grp in members.groupby(["observer", "quantity"], sort=False):
+    keys = ["observer", "postprocess", "quantity"]
+    for (obs, pp, quantity), grp in members.groupby(keys, sort=False, dropna=False):
         ok = grp[grp.status == "ok"]
         values = ok.empirical.to_numpy(float)
         has_bound = bool(np.isfinite(ok.bound.to_numpy(float)).any())
-        rows.append({"member": "all", "observer": obs, "quantity": quantity,
+        rows.append({"member": "all", "observer": obs, "postprocess": pp, "quantity": quantity,
                      "empirical": values.mean() if len(values) else np.nan,
                      "std": values.std(ddof=1) if len(values) > 1 else np.nan,
                      "min": values.min() if len(values) else np.nan,
@@ -102,41 +139,62 @@ def _aggregate(members: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def run_ensemble(cfg: DictConfig, out_dir: str | Path) -> EnsembleResult:
-    """Draw, build, integrate and tabulate ``cfg.ensemble.size`` members."""
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    size, seed = int(cfg.ensemble.size), int(cfg.seed)
-    skipped = [k for k in ("postprocess", "figures") if cfg.get(k)]
-    if skipped:
-        log.warning("ensemble: %s not applied (members keep metrics, not trajectories)",
-                    " and ".join(skipped))
-    solver = solver_settings(cfg)
-    noise_model = _instantiate(cfg.noise, "noise", NoiseModel)
-    draws = draw_members(cfg.ensemble.vary, size, int(cfg.ensemble.seed))
-    systems = [build_system(nodes) for nodes in member_nodes(cfg, draws)] if draws else \
-        [build_system(cfg)] * size
-    params, z0, d0 = stack_members(systems)
-    ny = len(systems[0].plant.output_names)
-    noise = [noise_model.sample(solver.t_end, ny, seed + i) for i in range(size)]
-    out = _simulate_chunks(stiffest_envelope(systems), solver, noise, params, z0, d0)
-
-    members = pd.DataFrame(_member_rows(systems, draws, out))
-    table = pd.concat([members, _aggregate(members)], ignore_index=True)
-    table.insert(0, "run", cfg.get("run_name", "run"))
-    table.to_csv(out_dir / "metrics.csv", index=False)
-    log.info("ensemble metrics (aggregate):\n%s",
-             table[table.member == "all"].dropna(axis=1, how="all").to_string(index=False))
-
-    first = simulate(systems[0], solver, noise[0], params[0], z0[0])
-    series = signals(systems[0], first)
+def _record_member0(cfg, out_dir, systems, solver, noise, size, post) -> None:
+    """The representative recording: member 0's run (with its post-processed series)."""
+    first = simulate(systems[0], solver, noise)
+    series = signals(systems[0], first) + post.series
     write_recording(out_dir / "recording.rrd", first.t, series,
                     recording_id=recording_id(out_dir),
                     blueprint=blueprint(systems[0], series),
                     text={"/run/status": f"ensemble of {size}; this recording: member 0",
                           "/run/config": job_config_yaml(cfg)})
+
+
+def run_ensemble(cfg: DictConfig, out_dir: str | Path) -> EnsembleResult:
+    """Plan, build, integrate and tabulate the members of ``cfg.ensemble``."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    if cfg.get("figures"):
+        log.warning("ensemble: figures not applied (they draw one run; see ensemble.reports)")
+    solver = solver_settings(cfg)
+    plan = plan_members(cfg)
+    size = len(plan.index)
+    nodes = member_nodes(cfg, plan.values) if plan.values else [cfg] * size
+    systems = [build_system(n) for n in nodes] if plan.values else [build_system(cfg)] * size
+    params, z0, d0 = stack_members(systems)
+    ny = len(systems[0].plant.output_names)
+    models: dict[str, NoiseModel] = {}
+
+    def noise_model(node) -> NoiseModel:
+        key = repr(node)
+        if key not in models:
+            models[key] = _instantiate(node, "noise", NoiseModel)
+        return models[key]
+
+    noise = [noise_model(n["noise"]).sample(solver.t_end, ny, seed)
+             for n, seed in zip(nodes, plan.seeds, strict=True)]
+    record = bool(cfg.get("postprocess"))
+    out = _simulate_chunks(solver, noise, params, z0, d0, systems, record)
+    posts = _post([n["postprocess"] for n in nodes], systems, out["trajectories"]) \
+        if record else None
+
+    members = pd.DataFrame(_member_rows(systems, plan, out, posts))
+    table = pd.concat([members, _aggregate(members)], ignore_index=True)
+    table.insert(0, "run", cfg.get("run_name", "run"))
+    table.to_csv(out_dir / "metrics.csv", index=False)
+    log.info("ensemble metrics (aggregate):\n%s",
+             table[table.member == "all"].dropna(axis=1, how="all").to_string(index=False))
+    _record_member0(cfg, out_dir, systems, solver, noise[0], size,
+                    posts[0] if posts else PostOutput())
     metric_histograms(members, out_dir / "ensemble.png")
     n_failed = int((out["status"] != 0).sum())
     if n_failed:
         log.warning("ensemble: %d of %d members stopped early (see metrics.csv)", n_failed, size)
-    return EnsembleResult(systems, draws, out["acc"], out["status"], out["t_stop"], table)
+    values = {k: np.asarray(v) for k, v in plan.values.items()}
+    result = EnsembleResult(systems, values, out["acc"], out["status"], out["t_stop"], table,
+                            out.get("trajectories"))
+    for name, node in (cfg.ensemble.get("reports") or {}).items():
+        if node is not None:
+            log.info("ensemble report %s", name)
+            instantiate(node, _partial_=True)(result, out_dir)
+    return result

@@ -46,16 +46,11 @@ def window_means(system: System, acc: np.ndarray) -> dict[tuple[str, str], float
     return means
 
 
-def metrics_table(system: System, acc: np.ndarray, status: int, t_stop: float,
-                  extra_bounds: dict[tuple[str, str], float] | None = None,
-                  extra_rows: list[dict] | None = None) -> pd.DataFrame:
-    """One row per (observer, quantity): empirical mean, bound, ratio, holds, run status.
-
-    ``extra_bounds`` fill the bound of the engine's rows, ``extra_rows`` (post-processing:
-    observer, postprocess, quantity, empirical, bound) are appended. A failed run
-    (status != 0) keeps its rows with ``empirical`` = NaN, the status ``failed``, the
-    stop time and the cause.
-    """
+def metric_rows(system: System, acc: np.ndarray, status: int, t_stop: float,
+                extra_bounds: dict[tuple[str, str], float] | None = None,
+                extra_rows: list[dict] | None = None) -> list[dict]:
+    """The rows of :func:`metrics_table` as dicts (an ensemble builds many without a
+    DataFrame each)."""
     extra_bounds = extra_bounds or {}
     observers = {o.name: o for o in system.observers}
     rows = []
@@ -68,9 +63,20 @@ def metrics_table(system: System, acc: np.ndarray, status: int, t_stop: float,
         row = metric_row(extra["observer"], extra["quantity"], float(extra["empirical"]),
                    extra.get("bound"))
         rows.append({**extra, **row})
-    table = pd.DataFrame(rows)
-    table["window"] = float(acc[-1])
-    table["status"] = "ok" if status == 0 else "failed"
-    table["t_stop"] = float(t_stop)
-    table["message"] = STATUS[status]
+    run = {"window": float(acc[-1]), "status": "ok" if status == 0 else "failed",
+           "t_stop": float(t_stop), "message": STATUS[status]}
+    return [{**row, **run} for row in rows]
+
+
+def metrics_table(system: System, acc: np.ndarray, status: int, t_stop: float,
+                  extra_bounds: dict[tuple[str, str], float] | None = None,
+                  extra_rows: list[dict] | None = None) -> pd.DataFrame:
+    """One row per (observer, quantity): empirical mean, bound, ratio, holds, run status.
+
+    ``extra_bounds`` fill the bound of the engine's rows, ``extra_rows`` (post-processing:
+    observer, postprocess, quantity, empirical, bound) are appended. A failed run
+    (status != 0) keeps its rows with ``empirical`` = NaN, the status ``failed``, the
+    stop time and the cause.
+    """
+    table = pd.DataFrame(metric_rows(system, acc, status, t_stop, extra_bounds, extra_rows))
     return table[COLUMNS + [c for c in table.columns if c not in COLUMNS]]
