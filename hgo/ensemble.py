@@ -122,7 +122,8 @@ def plan_members(cfg: DictConfig) -> MemberPlan:
     """Members of ``cfg.ensemble``: grid points x replicates, then the shard.
 
     ``grid`` (dotted key -> list) gives G points (1 if empty); ``size`` gives R replicates
-    per point (R = 1 when 0 and a grid is set). Replicate j draws ``vary`` with
+    per point (R = 1 when 0 and a grid is set). Replicate j draws ``vary`` (less the grid's
+    keys: a key on the grid takes its grid values) with
     ``ensemble.seed`` (the same draw j at every grid point: common random numbers) and
     uses noise seed ``seed + j`` (``seed`` from the grid if it varies it, else the
     config's), so a grid of one replicate reproduces the jobs of the same sweep with
@@ -133,9 +134,7 @@ def plan_members(cfg: DictConfig) -> MemberPlan:
                   else dict(node or {}) for node in (ens.get("grid"), ens.get("vary")))
     check_member_keys(list(grid), "ensemble.grid")
     check_member_keys(list(vary), "ensemble.vary")
-    if set(grid) & set(vary):
-        raise ValueError(f"ensemble: {sorted(set(grid) & set(vary))} both in ensemble.grid "
-                         "and ensemble.vary")
+    vary = {k: v for k, v in vary.items() if k not in grid}  # a grid key is not drawn
     points = expand_grid(grid)
     n_points, reps = grid_size(grid), max(int(ens.size), 1 if grid else 0)
     draws = draw_members(vary, reps, int(ens.seed))

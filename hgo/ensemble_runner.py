@@ -15,7 +15,8 @@ members' trajectories are kept and post-processed (the same rows as a single run
   varied values, then aggregate rows (``member = all``): mean (``empirical``), ``std``,
   ``min``, ``max``, ``n_ok``, ``n_failed``, and ``holds_fraction`` where a bound exists.
 * ``recording.rrd``: the trajectory of member 0 (a representative run; ``recording.mode``).
-* ``ensemble.png``: the distribution of every metric over the members.
+* ``ensemble.png``: the distribution of every metric over the members (with
+  ``ensemble.size`` > 1 replicates; a grid's figures are its reports').
 * what each entry of ``ensemble.reports`` (name -> ``_target_`` of ``f(result, out_dir)``)
   writes: the combined tables and figures of the equivalent multirun's callback.
 
@@ -66,6 +67,8 @@ class EnsembleResult:
     t_stop: np.ndarray
     metrics: pd.DataFrame
     trajectories: list | None = None  # per member, when post-processed
+    nodes: list | None = None  # per member: its config groups (hgo.ensemble.GROUPS)
+    index: np.ndarray | None = None  # per member: its index in the unsharded ensemble
 
 
 def is_ensemble(cfg: DictConfig) -> bool:
@@ -186,13 +189,14 @@ def run_ensemble(cfg: DictConfig, out_dir: str | Path) -> EnsembleResult:
              table[table.member == "all"].dropna(axis=1, how="all").to_string(index=False))
     _record_member0(cfg, out_dir, systems, solver, noise[0], size,
                     posts[0] if posts else PostOutput())
-    metric_histograms(members, out_dir / "ensemble.png")
+    if int(cfg.ensemble.size) > 1:  # a distribution of replicates (a grid has its reports)
+        metric_histograms(members, out_dir / "ensemble.png")
     n_failed = int((out["status"] != 0).sum())
     if n_failed:
         log.warning("ensemble: %d of %d members stopped early (see metrics.csv)", n_failed, size)
     values = {k: np.asarray(v) for k, v in plan.values.items()}
     result = EnsembleResult(systems, values, out["acc"], out["status"], out["t_stop"], table,
-                            out.get("trajectories"))
+                            out.get("trajectories"), nodes, plan.index)
     for name, node in (cfg.ensemble.get("reports") or {}).items():
         if node is not None:
             log.info("ensemble report %s", name)

@@ -1,0 +1,130 @@
+"""Sweeps at scale (issue 17): grid ensembles, shards."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+import yaml
+
+from hgo.ensemble_runner import run_ensemble
+from hgo.grid import expand_grid, parse_shard, shard_indices
+from hgo.papers.ahrens_khalil.figures import tradeoff_point, write_tradeoff_report
+from hgo.runner import job_config_yaml, simulate_config
+
+SP_GRID = ["experiment=sp_ensemble", "ensemble.size=0", "solver.t_end=20",
+           "metrics.window=5",
+           "++ensemble.grid={observer.sign_indefinite.p2: [0.5, 1.5, 3.0], "
+           "observer.sign_indefinite.xhat0: [[1.0, 1.0], [-2.0, 0.5]]}"]
+
+
+def test_grid_is_the_cartesian_product_first_key_slowest():
+    points = expand_grid({"a": [1, 2], "b": ["x", "y", "z"]})
+    assert points["a"] == [1, 1, 1, 2, 2, 2]
+    assert points["b"] == ["x", "y", "z"] * 2
+    with pytest.raises(ValueError, match="ensemble.grid.a"):
+        expand_grid({"a": []})
+    with pytest.raises(ValueError, match="ensemble.grid.a"):
+        expand_grid({"a": 3})
+
+
+def test_shards_partition_the_members():
+    parts = [shard_indices(11, f"{i}/3") for i in range(3)]
+    np.testing.assert_array_equal(np.concatenate(parts), np.arange(11))
+    assert parse_shard(None) == (0, 1)
+    for bad in ("3/3", "-1/2", "a/b", "1"):
+        with pytest.raises(ValueError, match="ensemble.shard must be 'i/N'"):
+            parse_shard(bad)
+
+
+def test_grid_members_equal_single_runs_and_carry_their_values(compose, tmp_path):
+    """Each grid member's window means equal the single run of its values (rel 1e-12),
+    and its rows carry the member's grid values."""
+    cfg = compose(SP_GRID, tmp_path)
+    result = run_ensemble(cfg, tmp_path)
+    table = pd.read_csv(tmp_path / "metrics.csv")
+    members = table[table.member != "all"]
+    assert sorted(members.member.astype(int).unique()) == list(range(6))
+    p2 = result.draws["observer.sign_indefinite.p2"]
+    xhat0 = result.draws["observer.sign_indefinite.xhat0"]
+    np.testing.assert_array_equal(p2, [0.5, 0.5, 1.5, 1.5, 3.0, 3.0])
+    for i in (1, 4):
+        single = compose(["experiment=sp_ensemble", "ensemble.size=0", "solver.t_end=20",
+                          "metrics.window=5", f"observer.sign_indefinite.p2={float(p2[i])!r}",
+                          "observer.sign_indefinite.xhat0="
+                          f"[{float(xhat0[i][0])!r},{float(xhat0[i][1])!r}]"])
+        expected = simulate_config(single).metrics.set_index(["observer", "quantity"])
+        rows = members[members.member == str(i)].set_index(["observer", "quantity"])
+        assert (rows["observer.sign_indefinite.p2"] == p2[i]).all()
+        for key in expected.index:
+            assert rows.loc[key, "empirical"] == pytest.approx(
+                expected.loc[key, "empirical"], rel=1e-12), (i, key)
+
+
+def test_grid_combines_with_random_draws_and_seeds(compose, tmp_path):
+    """2 grid points x 3 replicates: replicate j has the same draw and seed seed + j at
+    every point."""
+    cfg = compose(["experiment=sp_ensemble", "ensemble.size=3", "solver.t_end=2",
+                   "metrics.window=1", "seed=7",
+                   "++ensemble.grid={plant.nu1: [2.0, 3.0]}"], tmp_path)
+    result = run_ensemble(cfg, tmp_path)
+    table = result.metrics[result.metrics.member != "all"]
+    seeds = table.groupby("member").seed.first().reindex([str(i) for i in range(6)])
+    assert seeds.tolist() == [7, 8, 9, 7, 8, 9]
+    p2 = result.draws["observer.sign_indefinite.p2"]
+    np.testing.assert_array_equal(p2[:3], p2[3:])
+    assert len(set(p2[:3])) == 3
+    np.testing.assert_array_equal(result.draws["plant.nu1"], [2.0] * 3 + [3.0] * 3)
+
+
+def test_grid_rejects_keys_shared_by_all_members(compose, tmp_path):
+    cfg = compose(["experiment=sp_ensemble", "++ensemble.grid={solver.rtol: [1e-6, 1e-7]}"],
+                  tmp_path)
+    with pytest.raises(ValueError, match="ensemble.grid.solver.rtol: only keys under"):
+        run_ensemble(cfg, tmp_path)
+
+
+def test_merged_shards_equal_the_unsharded_table(compose, tmp_path):
+    """Three shards of the 6-member grid, concatenated, give the unsharded member rows."""
+    whole = run_ensemble(compose(SP_GRID, tmp_path / "all"), tmp_path / "all").metrics
+    parts = [run_ensemble(compose([*SP_GRID, f"++ensemble.shard={i}/3"], tmp_path / str(i)),
+                          tmp_path / str(i)).metrics for i in range(3)]
+    merged = pd.concat([p[p.member != "all"] for p in parts], ignore_index=True)
+    pd.testing.assert_frame_equal(merged, whole[whole.member != "all"].reset_index(drop=True))
+
+
+@pytest.fixture(scope="module")
+def ak_grid(tmp_path_factory):
+    from hgo.config import compose
+
+    out = tmp_path_factory.mktemp("ak_grid")
+    return run_ensemble(compose(["experiment=ak_tradeoff_grid"], out), out), out
+
+
+def test_ak_tradeoff_grid_fit_equals_the_multirun_fit(ak_grid, compose, tmp_path):
+    """The 52-point trade-off fit of (25) from the grid ensemble equals the fit from the
+    52 jobs of ``-m experiment=ak_tradeoff`` (each job's own composed config and single
+    run, as the multirun runs it): points and fit to 1e-9 relative."""
+    result, out = ak_grid
+    grid = result.draws
+    points = []
+    for k, (eps, mu) in enumerate(zip(grid["observer.fixed.eps1"], grid["noise.amplitude"],
+                                      strict=True)):
+        cfg = compose(["experiment=ak_tradeoff", f"observer.fixed.eps1={float(eps)!r}",
+                       f"noise.amplitude={float(mu)!r}"])
+        job = yaml.safe_load(job_config_yaml(cfg))
+        points.append(tradeoff_point(f"job{k}", job, simulate_config(cfg).metrics))
+    multirun = write_tradeoff_report(points, [], tmp_path, "multirun")
+    ensemble = pd.read_csv(out / "tradeoff_points.csv")
+    assert len(ensemble) == 52
+    np.testing.assert_allclose(ensemble.bound, [p["bound"] for p in points], rtol=1e-9)
+    fit_m = pd.DataFrame(multirun["analysis"].per_mu)
+    fit_e = pd.read_csv(out / "tradeoff_fit.csv")
+    for col in ("c1", "c2", "eps_star_fit", "eps_star_grid"):
+        np.testing.assert_allclose(fit_e[col], fit_m[col], rtol=1e-9, err_msg=col)
+    q_m = multirun["analysis"].power_fit.exponent
+    md = (out / "tradeoff.md").read_text()
+    assert f"| fit of (25) per mu | {q_m:.4f} |" in md
+    assert math.isfinite(q_m) and (out / "tradeoff.png").exists()
