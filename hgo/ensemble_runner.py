@@ -37,7 +37,13 @@ from omegaconf import DictConfig
 
 from hgo.engine.simulate import rho_const, simulate, simulate_ensemble
 from hgo.engine.system import System
-from hgo.ensemble import member_nodes, plain_value, plan_members, stack_members
+from hgo.ensemble import (
+    build_members,
+    member_nodes,
+    plain_value,
+    plan_members,
+    stack_members,
+)
 from hgo.figures.ensemble import metric_histograms
 from hgo.metrics import metric_rows
 from hgo.noise import NoiseModel
@@ -163,7 +169,7 @@ def run_ensemble(cfg: DictConfig, out_dir: str | Path) -> EnsembleResult:
     plan = plan_members(cfg)
     size = len(plan.index)
     nodes = member_nodes(cfg, plan.values) if plan.values else [cfg] * size
-    systems = [build_system(n) for n in nodes] if plan.values else [build_system(cfg)] * size
+    systems = build_members(nodes) if plan.values else [build_system(cfg)] * size
     params, z0, d0 = stack_members(systems)
     ny = len(systems[0].plant.output_names)
     models: dict[str, NoiseModel] = {}
