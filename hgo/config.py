@@ -10,6 +10,7 @@ is enough (the factory's signature then checks the keys).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from enum import Enum
 from pathlib import Path
 from typing import Any
 
@@ -94,6 +95,22 @@ class EnsembleConf:
     reports: dict[str, Any] = field(default_factory=dict)
 
 
+class RecordingMode(Enum):
+    full = "full"
+    decimated = "decimated"
+    off = "off"
+
+
+@dataclass
+class RecordingConf:
+    """``mode`` in {full, decimated, off} (checked when Hydra composes); ``max_rows``
+    (decimated): at most this many rows, the min/max envelope per bucket
+    (:mod:`hgo.decimate`)."""
+
+    mode: RecordingMode = RecordingMode.full
+    max_rows: int = 16384
+
+
 def register_configs() -> None:
     """Store every schema in Hydra's ConfigStore (idempotent)."""
     cs = ConfigStore.instance()
@@ -103,6 +120,7 @@ def register_configs() -> None:
     cs.store(group="schema/solver", name="solver", node=SolverConf)
     cs.store(group="schema", name="metrics", node=MetricsConf)
     cs.store(group="schema/ensemble", name="ensemble", node=EnsembleConf)
+    cs.store(group="schema/recording", name="recording", node=RecordingConf)
     for module in paper_modules("config"):  # each paper's own schemas
         module.register_configs()
 

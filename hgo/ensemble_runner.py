@@ -35,6 +35,7 @@ import pandas as pd
 from hydra.utils import instantiate
 from omegaconf import DictConfig
 
+from hgo.decimate import write_run_recording
 from hgo.engine.simulate import rho_const, simulate, simulate_ensemble
 from hgo.engine.system import System
 from hgo.ensemble import (
@@ -48,7 +49,6 @@ from hgo.figures.ensemble import metric_histograms
 from hgo.metrics import metric_rows
 from hgo.noise import NoiseModel
 from hgo.postprocess import PostOutput
-from hgo.recording import write_recording
 from hgo.runner import (
     _construct,
     _instantiate,
@@ -148,15 +148,16 @@ def _aggregate(members: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def _record_member0(cfg, out_dir, systems, solver, noise, size, post) -> None:
-    """The representative recording: member 0's run (with its post-processed series)."""
-    first = simulate(systems[0], solver, noise)
+def _record_member0(cfg, out_dir, systems, solver, noise, size, post, first) -> None:
+    """The representative recording: member 0's run (``first``, its trajectory if kept,
+    else simulated again) with its post-processed series."""
+    first = first or simulate(systems[0], solver, noise)
     series = signals(systems[0], first) + post.series
-    write_recording(out_dir / "recording.rrd", first.t, series,
-                    recording_id=recording_id(out_dir),
-                    blueprint=blueprint(systems[0], series),
-                    text={"/run/status": f"ensemble of {size}; this recording: member 0",
-                          "/run/config": job_config_yaml(cfg)})
+    write_run_recording(cfg.get("recording"), out_dir / "recording.rrd", first.t, series,
+                        recording_id=recording_id(out_dir),
+                        blueprint=blueprint(systems[0], series),
+                        text={"/run/status": f"ensemble of {size}; this recording: member 0",
+                              "/run/config": job_config_yaml(cfg)})
 
 
 def run_ensemble(cfg: DictConfig, out_dir: str | Path) -> EnsembleResult:
@@ -194,7 +195,8 @@ def run_ensemble(cfg: DictConfig, out_dir: str | Path) -> EnsembleResult:
     log.info("ensemble metrics (aggregate):\n%s",
              table[table.member == "all"].dropna(axis=1, how="all").to_string(index=False))
     _record_member0(cfg, out_dir, systems, solver, noise[0], size,
-                    posts[0] if posts else PostOutput())
+                    posts[0] if posts else PostOutput(),
+                    out["trajectories"][0] if record else None)
     if int(cfg.ensemble.size) > 1:  # a distribution of replicates (a grid has its reports)
         metric_histograms(members, out_dir / "ensemble.png")
     n_failed = int((out["status"] != 0).sum())

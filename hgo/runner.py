@@ -24,12 +24,13 @@ from hydra.utils import get_method, instantiate
 from omegaconf import DictConfig, OmegaConf
 
 from hgo.components import Controller, Observer, Plant
+from hgo.decimate import write_run_recording
 from hgo.engine.simulate import SolverSettings, Trajectory, simulate
 from hgo.engine.system import System
 from hgo.metrics import metrics_table
 from hgo.noise import NoiseModel
 from hgo.postprocess import PostOutput
-from hgo.recording import Series, time_series_blueprint, write_recording
+from hgo.recording import Series, time_series_blueprint
 
 log = logging.getLogger(__name__)
 
@@ -242,10 +243,10 @@ def run(cfg: DictConfig, out_dir: str | Path) -> RunResult:
     status_text = (f"ok: t = 0 .. {traj.t_stop:g} s" if traj.ok else
                    f"failed at t = {traj.t_stop:g} s: {traj.message}")
     t1 = time.perf_counter()
-    write_recording(out_dir / "recording.rrd", traj.t, series,
-                    recording_id=recording_id(out_dir), blueprint=blueprint(exp.system, series),
-                    text={"/run/status": status_text,
-                          "/run/config": job_config_yaml(cfg)})
+    write_run_recording(cfg.get("recording"), out_dir / "recording.rrd", traj.t, series,
+                        recording_id=recording_id(out_dir),
+                        blueprint=blueprint(exp.system, series),
+                        text={"/run/status": status_text, "/run/config": job_config_yaml(cfg)})
     log.info("simulated in %.3f s; recording of %d samples x %d columns written in %.3f s",
              mem.simulate_seconds, len(traj.t), sum(len(s.names) for s in series),
              time.perf_counter() - t1)

@@ -1,4 +1,4 @@
-"""Sweeps at scale (issue 17): grid ensembles, shards."""
+"""Sweeps at scale (issue 17): grid ensembles, shards, recording modes."""
 
 from __future__ import annotations
 
@@ -8,10 +8,13 @@ import numpy as np
 import pandas as pd
 import pytest
 import yaml
+from omegaconf import OmegaConf
 
+from hgo.decimate import bucket_edges, envelope, write_run_recording
 from hgo.ensemble_runner import run_ensemble
 from hgo.grid import expand_grid, parse_shard, shard_indices
 from hgo.papers.ahrens_khalil.figures import tradeoff_point, write_tradeoff_report
+from hgo.recording import Series, read_recording
 from hgo.runner import job_config_yaml, simulate_config
 
 SP_GRID = ["experiment=sp_ensemble", "ensemble.size=0", "solver.t_end=20",
@@ -128,3 +131,64 @@ def test_ak_tradeoff_grid_fit_equals_the_multirun_fit(ak_grid, compose, tmp_path
     md = (out / "tradeoff.md").read_text()
     assert f"| fit of (25) per mu | {q_m:.4f} |" in md
     assert math.isfinite(q_m) and (out / "tradeoff.png").exists()
+
+
+# --- recording modes ------------------------------------------------------------------------
+
+def test_envelope_keeps_every_peak_and_fits_max_rows():
+    """A one-sample spike in each column and each column's extremes per bucket survive."""
+    rng = np.random.default_rng(0)
+    n, max_rows = 100_003, 1024
+    t = np.arange(n) * 1e-3
+    values = rng.normal(size=(n, 2))
+    values[54_321, 0], values[777, 1] = 50.0, -60.0
+    t_dec, (dec,) = envelope(t, [Series("/x", ["a", "b"], values)], max_rows)
+    assert len(t_dec) <= max_rows and np.all(np.diff(t_dec) > 0)
+    assert dec.values.max(axis=0)[0] == 50.0 and dec.values.min(axis=0)[1] == -60.0
+    edges = bucket_edges(n, max_rows)
+    for k in (0, 17, len(edges) - 2):
+        block = values[edges[k]:edges[k + 1]]
+        np.testing.assert_array_equal(dec.values[2 * k], block.min(axis=0))
+        np.testing.assert_array_equal(dec.values[2 * k + 1], block.max(axis=0))
+        assert t_dec[2 * k] == t[edges[k]] and t_dec[2 * k + 1] == t[edges[k + 1] - 1]
+    same_t, (same,) = envelope(t[:1000], [Series("/x", ["a", "b"], values[:1000])], 1024)
+    np.testing.assert_array_equal(same_t, t[:1000])
+    np.testing.assert_array_equal(same.values, values[:1000])
+
+
+@pytest.mark.parametrize("mode", ["decimated", "off"])
+def test_recording_modes_never_change_metrics(compose, tmp_path, mode):
+    """metrics.csv is the same in full, decimated and off; decimated writes <= max_rows
+    rows and says so in /run/config; off writes no recording."""
+    from hgo.runner import run
+
+    base = ["experiment=sp_fig3", "solver.t_end=20", "metrics.window=5", "figures={}"]
+    full = run(compose(base, tmp_path / "full"), tmp_path / "full").metrics
+    other = run(compose([*base, f"recording={mode}", "recording.max_rows=256"],
+                        tmp_path / mode), tmp_path / mode).metrics
+    pd.testing.assert_frame_equal(full, other)
+    rrd = tmp_path / mode / "recording.rrd"
+    if mode == "off":
+        assert not rrd.exists()
+        return
+    rec = read_recording(rrd)
+    assert len(rec["sim_time"]) == 256 < len(read_recording(tmp_path / "full" /
+                                                            "recording.rrd")["sim_time"])
+    full_r = read_recording(tmp_path / "full" / "recording.rrd")["/observer/sign_indefinite/r"]
+    assert rec["/observer/sign_indefinite/r"].max() == full_r.max()  # the peak stays
+
+
+def test_decimated_recording_says_so_in_run_config(monkeypatch, tmp_path):
+    captured = {}
+    monkeypatch.setattr("hgo.decimate.write_recording",
+                        lambda path, t, series, text, **kw: captured.update(text=text, t=t))
+    node = OmegaConf.create({"mode": "decimated", "max_rows": 64})
+    t = np.linspace(0, 1, 1001)
+    write_run_recording(node, tmp_path / "r.rrd", t, [Series("/x", ["a"], t[:, None])],
+                        text={"/run/config": "seed: 0\n"}, recording_id="x")
+    assert captured["text"]["/run/config"].startswith(
+        "# recording.mode=decimated: min/max envelope of 1001 samples in 32 buckets")
+    assert captured["text"]["/run/config"].endswith("seed: 0\n") and len(captured["t"]) == 64
+    with pytest.raises(ValueError, match="recording.max_rows must be an integer >= 2"):
+        write_run_recording(OmegaConf.create({"mode": "full", "max_rows": 1}), tmp_path / "r",
+                            t, [], text={}, recording_id="x")
