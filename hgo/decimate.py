@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from hgo.engine.jit import kernel_helper
 from hgo.recording import Series, write_recording
 
 log = logging.getLogger(__name__)
@@ -46,8 +47,7 @@ def envelope(t: np.ndarray, series: Sequence[Series], max_rows: int
     for s in series:
         values = np.asarray(s.values, float)
         dec = np.empty((len(t_out), values.shape[1]))
-        dec[0::2] = np.minimum.reduceat(values, starts, axis=0)
-        dec[1::2] = np.maximum.reduceat(values, starts, axis=0)
+        _bucket_min_max(values, edges, dec)
         out.append(Series(s.entity, s.names, dec))
     return t_out, out
 
@@ -82,3 +82,21 @@ def write_run_recording(recording, path: Path, t: np.ndarray, series: Sequence[S
     text = dict(text)
     text["/run/config"] = note + text.get("/run/config", "")
     return write_recording(path, t, series, text=text, **kwargs)
+
+
+@kernel_helper
+def _bucket_min_max(values, edges, out):
+    """out[2k] = min, out[2k + 1] = max of every column over rows edges[k]:edges[k + 1]
+    in one pass (the recorded samples are finite: the kernel stops before recording a
+    non-finite state). Several times faster than np.minimum/maximum.reduceat."""
+    for k in range(edges.shape[0] - 1):
+        a, b = edges[k], edges[k + 1]
+        for j in range(values.shape[1]):
+            lo = values[a, j]
+            hi = lo
+            for i in range(a + 1, b):
+                v = values[i, j]
+                lo = v if v < lo else lo
+                hi = v if v > hi else hi
+            out[2 * k, j] = lo
+            out[2 * k + 1, j] = hi
