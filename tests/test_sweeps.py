@@ -218,7 +218,9 @@ def test_every_configured_target_is_importable_from_the_package():
 @pytest.mark.slow
 def test_submitit_local_sweep_with_its_aggregation_callback(tmp_path):
     """``-m experiment=sp_fig3 hydra/launcher=submitit_local``: 3 jobs on submitit's local
-    executor (one process each), then the sweep's AggregateCallback combines them."""
+    executor (one process each), then the sweep's AggregateCallback combines them; the
+    grid ensemble ``sp_fig3_grid`` of the same points gives the same metrics_all.csv
+    values (rel 1e-9) and its own compare.png."""
     import os
     import subprocess
     import sys
@@ -243,3 +245,18 @@ def test_submitit_local_sweep_with_its_aggregation_callback(tmp_path):
     assert p2 == {"job0": 3.0, "job1": 2.0, "job2": 1.5}
     assert (sweep / "compare.png").stat().st_size > 0
     assert "job2" in (sweep / "metrics_all.md").read_text()
+    # the grid ensemble of the same points writes the same table (member k = job k)
+    from hgo.config import compose
+
+    grid_dir = tmp_path / "grid"
+    run_ensemble(compose(["experiment=sp_fig3_grid", "solver.t_end=10", "metrics.window=5"],
+                         grid_dir), grid_dir)
+    grid = pd.read_csv(grid_dir / "metrics_all.csv")
+    assert (grid_dir / "compare.png").stat().st_size > 0
+    key = ["observer", "postprocess", "quantity"]
+    for k in range(3):
+        a = rows[rows.job == f"job{k}"].fillna({"postprocess": ""}).set_index(key)
+        b = grid[grid.job == f"member{k}"].fillna({"postprocess": ""}).set_index(key)
+        assert list(a.index) == list(b.index)
+        np.testing.assert_allclose(b.empirical, a.empirical, rtol=1e-9, equal_nan=True)
+        np.testing.assert_allclose(b.bound, a.bound, rtol=1e-9, equal_nan=True)
