@@ -13,6 +13,9 @@ and writes, in the sweep directory (or ``--out``):
   ``sign_indefinite``) of every job, read back from each ``recording.rrd``
   (Sanfelice & Praly Fig. 3 for the ``sp_fig3`` sweep).
 
+A grid ensemble of the same points (``experiment=sp_fig3_grid``) writes the same files
+through :func:`aggregate_ensemble` (its ``ensemble.reports``), one "job" per member.
+
 A job without ``metrics.csv`` (it crashed before writing) is skipped and listed; a job whose
 run failed (status ``failed``) keeps its rows (status column) but is left out of the figure,
 and is listed too. Hydra skips ``on_multirun_end`` callbacks when a job fails, which is why
@@ -209,6 +212,47 @@ def aggregate(sweep: str | Path, out: str | Path | None = None,
     rrds = sorted(str(p) for p in sweep.glob("*/recording.rrd"))
     if rrds:
         print("open together in the Rerun viewer:  rerun " + " ".join(rrds))
+    return paths
+
+
+def aggregate_ensemble(result, out_dir: str | Path, observer: str = "sign_indefinite"
+                       ) -> dict[str, Path]:
+    """:func:`aggregate` of a grid ensemble (``ensemble.reports`` of e.g. ``sp_fig3_grid``):
+    the same metrics_all.csv/.md with one "job" per member (``member<i>``, its overrides
+    the member's varied values) and compare.png from the members' trajectories (kept when
+    the config post-processes)."""
+    from hgo.papers.sanfelice_praly.figures import fig3_compare
+    from hgo.runner import signals
+
+    out = Path(out_dir)
+    members = result.metrics[result.metrics.member != "all"].dropna(axis=1, how="all")
+    jobs = [f"member{i}" for i in result.index]
+    overrides = {job: " ".join(f"{k}={v[i].tolist()}" for k, v in result.draws.items())
+                 for i, job in enumerate(jobs)}
+    frames = []
+    for i, job in enumerate(jobs):
+        rows = members[members.member == str(result.index[i])].drop(columns="member")
+        rows = rows.drop(columns=[c for c in result.draws if c in rows])
+        rows.insert(0, "job", job)
+        rows.insert(1, "overrides", overrides[job])
+        frames.append(rows)
+    rows = pd.concat(frames, ignore_index=True)
+    failed = [f"{job}: run failed at t = {result.t_stop[i]:g} s"
+              for i, job in enumerate(jobs) if result.status[i] != 0]
+    paths = {"csv": out / "metrics_all.csv", "md": out / "metrics_all.md"}
+    rows.to_csv(paths["csv"], index=False)
+    paths["md"].write_text(markdown(rows, overrides, [], failed, f"Grid ensemble {out}"))
+    if result.trajectories is not None:
+        runs = []
+        for i, job in enumerate(jobs):
+            tr = result.trajectories[i]
+            rec = {s.entity: s.values for s in signals(result.systems[i], tr)}
+            if result.status[i] == 0 and f"/observer/{observer}/xhat" in rec:
+                runs.append((overrides[job], {"sim_time": tr.t, **rec}))
+        if runs:
+            fig3_compare(runs, out / "compare.png", observer=observer)
+            paths["png"] = out / "compare.png"
+    print(f"aggregate: {len(jobs)} member(s) -> " + ", ".join(str(p) for p in paths.values()))
     return paths
 
 

@@ -1,5 +1,6 @@
 """The Hydra application: ``hgo run <overrides>`` and ``python experiments/run.py <overrides>``
-(``-m`` to sweep; ``ensemble.size=N`` runs N members of the config in one compiled call).
+(``-m`` to sweep; ``ensemble.size=N`` or ``ensemble.grid`` runs the members of the config in
+one compiled call).
 
 Each job writes into its Hydra run directory (under ``outputs/``): ``recording.rrd``
 (open with ``rerun <file>``), ``metrics.csv``, ``run.json`` (provenance, timings, status;

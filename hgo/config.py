@@ -10,6 +10,7 @@ is enough (the factory's signature then checks the keys).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from enum import Enum
 from pathlib import Path
 from typing import Any
 
@@ -85,11 +86,33 @@ class MetricsConf:
 @dataclass
 class EnsembleConf:
     """``size`` members (0: a single run); ``vary``: dotted key -> [low, high] (scalar) or
-    [[low, high], ...] (vector), drawn uniformly with ``seed``."""
+    [[low, high], ...] (vector), drawn uniformly with ``seed``; ``grid``: dotted key ->
+    value list (Cartesian product, ``size`` replicates per point); ``shard``: "i/N" runs
+    the i-th of N blocks of the members; ``reports``: name -> ``_target_`` of
+    ``f(result, out_dir)`` (see :mod:`hgo.ensemble_runner`)."""
 
     size: int = 0
     seed: int = 0
     vary: dict[str, Any] = field(default_factory=dict)
+    grid: dict[str, Any] = field(default_factory=dict)
+    shard: str | None = None
+    reports: dict[str, Any] = field(default_factory=dict)
+
+
+class RecordingMode(Enum):
+    full = "full"
+    decimated = "decimated"
+    off = "off"
+
+
+@dataclass
+class RecordingConf:
+    """``mode`` in {full, decimated, off} (checked when Hydra composes); ``max_rows``
+    (decimated): at most this many rows, the min/max envelope per bucket
+    (:mod:`hgo.decimate`)."""
+
+    mode: RecordingMode = RecordingMode.full
+    max_rows: int = 16384
 
 
 def register_configs() -> None:
@@ -101,6 +124,7 @@ def register_configs() -> None:
     cs.store(group="schema/solver", name="solver", node=SolverConf)
     cs.store(group="schema", name="metrics", node=MetricsConf)
     cs.store(group="schema/ensemble", name="ensemble", node=EnsembleConf)
+    cs.store(group="schema/recording", name="recording", node=RecordingConf)
     for module in paper_modules("config"):  # each paper's own schemas
         module.register_configs()
 

@@ -8,9 +8,8 @@ member has the same layout (the same compiled kernel serves them all).
 
 from __future__ import annotations
 
-import copy
 from collections.abc import Mapping
-from dataclasses import replace
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -18,6 +17,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from hgo.engine.system import System
 from hgo.errors import as_floats
+from hgo.grid import expand_grid, grid_size, shard_indices
 
 
 def _layout(system: System) -> tuple:
@@ -53,20 +53,6 @@ def stack_members(systems: list[System]) -> tuple[np.ndarray, np.ndarray, np.nda
     return params, z0, d0
 
 
-def stiffest_envelope(systems: list[System]) -> System:
-    """Member 0 with each component's ``spectral_radius`` raised to its largest over members.
-
-    One call of the ensemble kernel caps every member's RK4 steps with the constant spectral
-    radii of the system it is given: member 0's alone would let a stiffer member (e.g. a
-    larger drawn ``|nu1|``) step past RK4's stability limit. Only the step cap changes.
-    """
-    ref = systems[0]
-    plant = replace(ref.plant, spectral_radius=max(s.plant.spectral_radius for s in systems))
-    observers = [replace(o, spectral_radius=max(s.observers[k].spectral_radius for s in systems))
-                 for k, o in enumerate(ref.observers)]
-    return System(plant, observers, ref.controller)
-
-
 # --- ensembles from a Hydra config (``ensemble.size > 0``) ------------------------------
 
 def draw_members(vary: Mapping[str, Any], size: int, seed: int) -> dict[str, np.ndarray]:
@@ -89,16 +75,80 @@ def draw_members(vary: Mapping[str, Any], size: int, seed: int) -> dict[str, np.
     return draws
 
 
-def _set(tree: dict, dotted: str, value: Any) -> None:
+GROUPS = ("plant", "observer", "controller", "noise", "postprocess")
+"""Config groups a member may differ in: everything one compiled call can vary per member
+(the solver and the metrics window are shared by all)."""
+
+
+def plain_value(value: Any) -> Any:
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    return value.item() if isinstance(value, np.generic) else value
+
+
+def _set(tree: dict, dotted: str, value: Any) -> dict:
+    """``tree`` with ``dotted`` set to ``value``: the dicts along the path are copied, the
+    rest is shared (members differ in a few keys; deep copies cost seconds at 10,000)."""
     *path, leaf = dotted.split(".")
-    node = tree
+    root = node = dict(tree)
     for part in path:
-        if not isinstance(node, dict) or part not in node:
-            raise ValueError(f"ensemble.vary: '{dotted}' is not a key of the config")
-        node = node[part]
+        if not isinstance(node.get(part), dict):
+            raise ValueError(f"ensemble: '{dotted}' is not a key of the config")
+        node[part] = node = dict(node[part])
     if leaf not in node:
-        raise ValueError(f"ensemble.vary: '{dotted}' is not a key of the config")
-    node[leaf] = value.tolist() if isinstance(value, np.ndarray) else float(value)
+        raise ValueError(f"ensemble: '{dotted}' is not a key of the config")
+    node[leaf] = plain_value(value)
+    return root
+
+
+def check_member_keys(keys: list[str], where: str) -> None:
+    """Varied keys must lie in :data:`GROUPS` (or be ``seed``): one ValueError naming the
+    first that does not."""
+    for key in keys:
+        if key != "seed" and key.split(".")[0] not in GROUPS:
+            raise ValueError(f"{where}.{key}: only keys under {', '.join(GROUPS)} or 'seed' "
+                             "can differ between the members of one compiled call (solver "
+                             "and metrics are shared); sweep it with -m instead")
+
+
+@dataclass
+class MemberPlan:
+    """What each member sets: ``values[key][i]`` for member i, its noise ``seeds[i]`` and
+    its ``index`` in the whole (unsharded) ensemble."""
+
+    values: dict[str, list]
+    seeds: list[int]
+    index: np.ndarray
+
+
+def plan_members(cfg: DictConfig) -> MemberPlan:
+    """Members of ``cfg.ensemble``: grid points x replicates, then the shard.
+
+    ``grid`` (dotted key -> list) gives G points (1 if empty); ``size`` gives R replicates
+    per point (R = 1 when 0 and a grid is set). Replicate j draws ``vary`` (less the grid's
+    keys: a key on the grid takes its grid values) with
+    ``ensemble.seed`` (the same draw j at every grid point: common random numbers) and
+    uses noise seed ``seed + j`` (``seed`` from the grid if it varies it, else the
+    config's), so a grid of one replicate reproduces the jobs of the same sweep with
+    ``-m``. Member index = g * R + j.
+    """
+    ens = cfg.ensemble
+    grid, vary = (OmegaConf.to_container(node, resolve=True) if OmegaConf.is_config(node)
+                  else dict(node or {}) for node in (ens.get("grid"), ens.get("vary")))
+    check_member_keys(list(grid), "ensemble.grid")
+    check_member_keys(list(vary), "ensemble.vary")
+    vary = {k: v for k, v in vary.items() if k not in grid}  # a grid key is not drawn
+    points = expand_grid(grid)
+    n_points, reps = grid_size(grid), max(int(ens.size), 1 if grid else 0)
+    draws = draw_members(vary, reps, int(ens.seed))
+    index = shard_indices(n_points * reps, ens.get("shard"))
+    g, j = index // reps, index % reps
+    values = {k: [v[a] for a in g] for k, v in points.items()}
+    values.update({k: [v[b] for b in j] for k, v in draws.items()})
+    base = points.get("seed", [int(cfg.seed)] * n_points)
+    seeds = [int(base[a]) + int(b) for a, b in zip(g, j, strict=True)]
+    values.pop("seed", None)
+    return MemberPlan(values, seeds, index)
 
 
 def _interpolated_keys(cfg: DictConfig, keys: list[str]) -> list[str]:
@@ -107,24 +157,55 @@ def _interpolated_keys(cfg: DictConfig, keys: list[str]) -> list[str]:
     return [k for k in keys if "${" + k + "}" in text]
 
 
-def member_nodes(cfg: DictConfig, draws: dict[str, np.ndarray]) -> list[Mapping]:
-    """The component nodes (plant, observer, controller) of every member.
+def member_nodes(cfg: DictConfig, values: Mapping[str, Any]) -> list[Mapping]:
+    """The component nodes (:data:`GROUPS`) of every member; ``values[key][i]`` is the
+    value of member i (a list or an array, e.g. from :func:`draw_members`).
 
-    Fast path: resolve the config once and set the drawn values in plain copies. If
-    another entry interpolates a varied key (``M: [[${plant.nu1}, 0], ...]``), every
-    member is re-resolved so the interpolation follows the drawn value.
+    Fast path: resolve the config once and set the members' values in plain copies of
+    the paths to the varied keys (an unvaried group is the same object in every member,
+    which :func:`build_members` builds once). If another entry interpolates a varied key
+    (``M: [[${plant.nu1}, 0], ...]``), every member is re-resolved so the interpolation
+    follows the member's value.
     """
-    groups = ("plant", "observer", "controller")
-    size = len(next(iter(draws.values()))) if draws else 0
+    size = len(next(iter(values.values()))) if values else 0
     job = OmegaConf.create({k: cfg[k] for k in cfg if k != "hydra"})
-    linked = _interpolated_keys(job, list(draws))
-    base = OmegaConf.to_container(job, resolve=not linked)
+    linked = _interpolated_keys(job, list(values))
+    if linked:
+        base = OmegaConf.to_container(job, resolve=False)
+    else:
+        base = {g: OmegaConf.to_container(job[g], resolve=True)
+                if job.get(g) is not None else None for g in GROUPS}
     members = []
     for i in range(size):
-        tree = copy.deepcopy(base)
-        for key, values in draws.items():
-            _set(tree, key, values[i])
+        tree = base
+        for key, column in values.items():
+            tree = _set(tree, key, column[i])
         if linked:
             tree = OmegaConf.to_container(OmegaConf.create(tree), resolve=True)
-        members.append({g: tree.get(g) for g in groups})
+        members.append({g: tree.get(g) for g in GROUPS})
     return members
+
+
+def build_members(nodes: list[Mapping]) -> list[System]:
+    """:func:`hgo.runner.build_system` of every member, each component built once per
+    distinct node object (members share their unvaried groups, :func:`member_nodes`)."""
+    from hgo.components import Controller, Observer, Plant
+    from hgo.runner import _instantiate
+
+    built: dict[int, Any] = {}
+
+    def once(node, group: str, kind: type, **kwargs):
+        if id(node) not in built:
+            built[id(node)] = (node, _instantiate(node, group, kind, **kwargs))
+        return built[id(node)][1]
+
+    systems = []
+    for n in nodes:
+        if not n["observer"]:
+            raise ValueError("observer: the config group is empty; choose an observer option")
+        observers = [once(node, f"observer.{name}", Observer, name=name)
+                     for name, node in n["observer"].items()]
+        ctrl = n.get("controller")
+        systems.append(System(once(n["plant"], "plant", Plant), observers,
+                              once(ctrl, "controller", Controller) if ctrl else None))
+    return systems

@@ -1,19 +1,26 @@
-"""An ensemble experiment from a Hydra config: ``ensemble.size`` members in one call.
+"""An ensemble experiment from a Hydra config: many members in one compiled call.
 
-Members differ by the values drawn for ``ensemble.vary`` (dotted config keys -> uniform
-ranges) and by their noise seed (member i uses ``seed + i``, so member 0 is the plain run
-of the config when nothing is varied). All members share one compiled kernel and run in
-parallel (:func:`hgo.engine.simulate.simulate_ensemble`); only the trailing-window
-metrics come back. Outputs in the run directory:
+Members (:func:`hgo.ensemble.plan_members`) are the points of ``ensemble.grid`` (dotted
+keys -> value lists, Cartesian product) times ``ensemble.size`` replicates that differ by
+the values drawn for ``ensemble.vary`` (dotted keys -> uniform ranges) and by their noise
+seed (replicate j uses ``seed + j``: without a grid, member i is the run of seed + i; a
+grid of one replicate reproduces the jobs of the multirun over the same lists).
+``ensemble.shard = "i/N"`` runs the i-th of N blocks of the members. All members share
+one compiled kernel and run in parallel (:func:`hgo.engine.simulate.simulate_ensemble`),
+each with its own RK4 step cap, as its single run. With a ``postprocess`` group the
+members' trajectories are kept and post-processed (the same rows as a single run's
+``metrics.csv``); otherwise only the trailing-window metrics come back. Outputs:
 
-* ``metrics.csv``: one row per (member, observer, quantity) with the drawn values, then
-  aggregate rows (``member = all``): mean (``empirical``), ``std``, ``min``, ``max``,
-  ``n_ok``, ``n_failed``, and ``holds_fraction`` where a bound exists.
-* ``recording.rrd``: the full trajectory of member 0 (a representative run).
-* ``ensemble.png``: the distribution of every metric over the members.
+* ``metrics.csv``: one row per (member, observer, quantity) with the member's index and
+  varied values, then aggregate rows (``member = all``): mean (``empirical``), ``std``,
+  ``min``, ``max``, ``n_ok``, ``n_failed``, and ``holds_fraction`` where a bound exists.
+* ``recording.rrd``: the trajectory of member 0 (a representative run; ``recording.mode``).
+* ``ensemble.png``: the distribution of every metric over the members (with
+  ``ensemble.size`` > 1 replicates; a grid's figures are its reports').
+* what each entry of ``ensemble.reports`` (name -> ``_target_`` of ``f(result, out_dir)``)
+  writes: the combined tables and figures of the equivalent multirun's callback.
 
-The ``postprocess`` and ``figures`` of the config need trajectories and are not applied
-(a warning says so).
+The ``figures`` of the config draw one run and are not applied (a warning says so).
 """
 
 from __future__ import annotations
@@ -25,19 +32,29 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from hydra.utils import instantiate
 from omegaconf import DictConfig
 
-from hgo.engine.simulate import INTERRUPTED, STATUS, simulate, simulate_ensemble
+from hgo.decimate import write_run_recording
+from hgo.engine.simulate import INTERRUPTED, rho_const, simulate, simulate_ensemble
 from hgo.engine.system import System
-from hgo.ensemble import draw_members, member_nodes, stack_members, stiffest_envelope
+from hgo.ensemble import (
+    build_members,
+    member_nodes,
+    plain_value,
+    plan_members,
+    stack_members,
+)
 from hgo.errors import ConfigError
 from hgo.figures.ensemble import metric_histograms
-from hgo.metrics import metric_row, status_word, window_means
+from hgo.metrics import metric_rows
 from hgo.noise import NoiseModel
+from hgo.postprocess import PostOutput
 from hgo.progress import bar
-from hgo.recording import atomic_output, write_recording
+from hgo.recording import atomic_output
 from hgo.runner import (
     RunInterrupted,
+    _construct,
     _instantiate,
     blueprint,
     build_system,
@@ -57,50 +74,81 @@ CHUNKS = 10  # progress is reported after each tenth of the members
 @dataclass
 class EnsembleResult:
     systems: list[System]
-    draws: dict[str, np.ndarray]
+    draws: dict[str, np.ndarray]  # varied key -> values of the members (grid and drawn)
     acc: np.ndarray
     status: np.ndarray
     t_stop: np.ndarray
     metrics: pd.DataFrame
+    trajectories: list | None = None  # per member, when post-processed
+    nodes: list | None = None  # per member: its config groups (hgo.ensemble.GROUPS)
+    index: np.ndarray | None = None  # per member: its index in the unsharded ensemble
 
 
-def _simulate_chunks(system: System, solver, noise, params, z0, d0) -> dict[str, np.ndarray]:
+def is_ensemble(cfg: DictConfig) -> bool:
+    """True if the config asks for an ensemble (``ensemble.size`` other than 0, or a grid;
+    a negative size is refused by :func:`prepare_ensemble`)."""
+    return int(cfg.ensemble.size) != 0 or bool(cfg.ensemble.get("grid"))
+
+
+def _simulate_chunks(solver, noise, params, z0, d0, systems, record) -> dict:
     """simulate_ensemble in chunks, logging progress (one compiled call per chunk)."""
     n = len(params)
+    rho = np.array([rho_const(s, solver) for s in systems])
     edges = np.unique(np.linspace(0, n, min(CHUNKS, n) + 1).astype(int))
     parts, start = [], time.perf_counter()
     with bar(n, "ensemble", "members") as progress:
         for a, b in zip(edges[:-1], edges[1:], strict=True):
-            parts.append(simulate_ensemble(system, solver, noise[a:b], params[a:b], z0[a:b],
-                                           d0[a:b]))
+            parts.append(simulate_ensemble(systems[0], solver, noise[a:b], params[a:b],
+                                           z0[a:b], d0[a:b], rho=rho[a:b], record=record))
             progress.update(b - a)
             log.info("ensemble: %d/%d members (%.2f s)", b, n, time.perf_counter() - start)
-    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+    out = {k: np.concatenate([p[k] for p in parts]) for k in ("acc", "status", "t_stop")}
+    if record:
+        out["trajectories"] = [tr for p in parts for tr in p["trajectories"]]
+    return out
 
 
-def _member_rows(systems, draws, out) -> list[dict]:
+def _post(nodes: list, systems: list[System], trajectories: list) -> list[PostOutput]:
+    """Every member's post-processing, in config order (post-processors built once per
+    distinct node)."""
+    built: dict[str, object] = {}
+    outs = []
+    for node, system, traj in zip(nodes, systems, trajectories, strict=True):
+        total = PostOutput()
+        if traj.ok:
+            for name, spec in (node or {}).items():
+                key = f"{name}={spec!r}"
+                if key not in built:
+                    built[key] = _construct(spec)
+                out = built[key].apply(system, traj)
+                total.series += out.series
+                total.rows += [{"postprocess": name, **row} for row in out.rows]
+                total.bounds.update(out.bounds)
+        outs.append(total)
+    return outs
+
+
+def _member_rows(systems, plan, out, posts) -> list[dict]:
     rows = []
     for i, system in enumerate(systems):
-        st = int(out["status"][i])
-        drawn = {k: (v[i].tolist() if v.ndim > 1 else float(v[i])) for k, v in draws.items()}
-        bounds = {o.name: o.bounds for o in system.observers}
-        for (obs, quantity), value in window_means(system, out["acc"][i]).items():
-            value = float(value) if st == 0 else np.nan
-            rows.append({"member": str(i),
-                         **metric_row(obs, quantity, value, bounds[obs].get(quantity)),
-                         "status": status_word(st),
-                         "t_stop": float(out["t_stop"][i]), "message": STATUS[st], **drawn})
+        varied = {k: plain_value(v[i]) for k, v in plan.values.items()}
+        post = posts[i] if posts else PostOutput()
+        for row in metric_rows(system, out["acc"][i], int(out["status"][i]),
+                               float(out["t_stop"][i]), post.bounds, post.rows):
+            rows.append({"member": str(int(plan.index[i])), **row, "seed": plan.seeds[i],
+                         **varied})
     return rows
 
 
 def _aggregate(members: pd.DataFrame) -> pd.DataFrame:
     """Mean and spread of every (observer, quantity) over the members that ran to the end."""
     rows = []
-    for (obs, quantity), grp in members.groupby(["observer", "quantity"], sort=False):
+    keys = ["observer", "postprocess", "quantity"]
+    for (obs, pp, quantity), grp in members.groupby(keys, sort=False, dropna=False):
         ok = grp[grp.status == "ok"]
         values = ok.empirical.to_numpy(float)
         has_bound = bool(np.isfinite(ok.bound.to_numpy(float)).any())
-        rows.append({"member": "all", "observer": obs, "quantity": quantity,
+        rows.append({"member": "all", "observer": obs, "postprocess": pp, "quantity": quantity,
                      "empirical": values.mean() if len(values) else np.nan,
                      "std": values.std(ddof=1) if len(values) > 1 else np.nan,
                      "min": values.min() if len(values) else np.nan,
@@ -110,12 +158,27 @@ def _aggregate(members: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def _record_member0(cfg, out_dir, systems, solver, noise, size, post, first) -> None:
+    """The representative recording: member 0's run (``first``, its trajectory if kept,
+    else simulated again) with its post-processed series."""
+    first = first or simulate(systems[0], solver, noise)
+    series = signals(systems[0], first) + post.series
+    write_run_recording(cfg.get("recording"), out_dir / "recording.rrd", first.t, series,
+                        recording_id=recording_id(out_dir),
+                        blueprint=blueprint(systems[0], series),
+                        text={"/run/status": f"ensemble of {size}; this recording: member 0, "
+                                             + status_text(first),
+                              "/run/config": job_config_yaml(cfg)})
+    return first
+
+
 @dataclass
 class EnsemblePlan:
-    """An ensemble built and checked, not yet integrated."""
+    """An ensemble planned, built and checked, not yet integrated."""
 
+    plan: object  # hgo.ensemble.MemberPlan
+    nodes: list
     systems: list[System]
-    draws: dict[str, np.ndarray]
     solver: object
     noise: list
     params: np.ndarray
@@ -124,59 +187,72 @@ class EnsemblePlan:
 
 
 def prepare_ensemble(cfg: DictConfig) -> EnsemblePlan:
-    """Check the config, draw and build every member and sample its noise (no integration)."""
+    """Check the config, plan and build every member and sample its noise (no integration)."""
     check_values(cfg)
-    size, seed = int(cfg.ensemble.size), int(cfg.seed)
-    if size < 1:
-        raise ConfigError("ensemble.size", f"must be >= 1 for an ensemble, got {size}",
-                          "0 for a single run, or >= 1")
+    if int(cfg.ensemble.size) < 0:
+        raise ConfigError("ensemble.size", f"must be >= 0, got {cfg.ensemble.size}",
+                          "0 for a single run (or one member per grid point), or >= 1")
     solver = solver_settings(cfg)
-    noise_model = _instantiate(cfg.noise, "noise", NoiseModel)
-    draws = draw_members(cfg.ensemble.vary, size, int(cfg.ensemble.seed))
-    systems = [build_system(nodes) for nodes in member_nodes(cfg, draws)] if draws else \
-        [build_system(cfg)] * size
-    ny = len(systems[0].plant.output_names)
-    noise_model.check_channels(ny)
-    check_cost(stiffest_envelope(systems), solver, noise_model)
+    plan = plan_members(cfg)
+    size = len(plan.index)
+    nodes = member_nodes(cfg, plan.values) if plan.values else [cfg] * size
+    systems = build_members(nodes) if plan.values else [build_system(cfg)] * size
     params, z0, d0 = stack_members(systems)
-    noise = [noise_model.sample(solver.t_end, ny, seed + i) for i in range(size)]
-    return EnsemblePlan(systems, draws, solver, noise, params, z0, d0)
+    ny = len(systems[0].plant.output_names)
+    models: dict[str, NoiseModel] = {}
+
+    def noise_model(node) -> NoiseModel:
+        key = repr(node)
+        if key not in models:
+            models[key] = _instantiate(node, "noise", NoiseModel)
+            models[key].check_channels(ny)
+        return models[key]
+
+    noise = [noise_model(n["noise"]).sample(solver.t_end, ny, seed)
+             for n, seed in zip(nodes, plan.seeds, strict=True)]
+    stiffest = max(range(size), key=lambda i: rho_const(systems[i], solver))
+    check_cost(systems[stiffest], solver, noise_model(nodes[stiffest]["noise"]),
+               record=bool(cfg.get("postprocess")))
+    return EnsemblePlan(plan, nodes, systems, solver, noise, params, z0, d0)
 
 
 def run_ensemble(cfg: DictConfig, out_dir: str | Path) -> EnsembleResult:
-    """Draw, build, integrate and tabulate ``cfg.ensemble.size`` members."""
+    """Plan, build, integrate and tabulate the members of ``cfg.ensemble``."""
     out_dir = Path(out_dir)
-    skipped = [k for k in ("postprocess", "figures") if cfg.get(k)]
-    if skipped:
-        log.warning("ensemble: %s not applied (members keep metrics, not trajectories)",
-                    " and ".join(skipped))
-    plan = prepare_ensemble(cfg)
-    size, systems, draws, solver, noise = (len(plan.systems), plan.systems, plan.draws,
-                                           plan.solver, plan.noise)
-    params, z0 = plan.params, plan.z0
+    if cfg.get("figures"):
+        log.warning("ensemble: figures not applied (they draw one run; see ensemble.reports)")
+    ready = prepare_ensemble(cfg)
+    plan, nodes, systems, solver, noise = (ready.plan, ready.nodes, ready.systems,
+                                           ready.solver, ready.noise)
+    size = len(plan.index)
     out_dir.mkdir(parents=True, exist_ok=True)
-    out = _simulate_chunks(stiffest_envelope(systems), solver, noise, params, z0, plan.d0)
+    record = bool(cfg.get("postprocess"))
+    out = _simulate_chunks(solver, noise, ready.params, ready.z0, ready.d0, systems, record)
+    posts = _post([n["postprocess"] for n in nodes], systems, out["trajectories"]) \
+        if record else None
 
-    members = pd.DataFrame(_member_rows(systems, draws, out))
+    members = pd.DataFrame(_member_rows(systems, plan, out, posts))
     table = pd.concat([members, _aggregate(members)], ignore_index=True)
     table.insert(0, "run", cfg.get("run_name", "run"))
     with atomic_output(out_dir / "metrics.csv") as partial:
         table.to_csv(partial, index=False)
     log.info("ensemble metrics (aggregate):\n%s",
              table[table.member == "all"].dropna(axis=1, how="all").to_string(index=False))
-
-    first = simulate(systems[0], solver, noise[0], params[0], z0[0])
-    series = signals(systems[0], first)
-    write_recording(out_dir / "recording.rrd", first.t, series,
-                    recording_id=recording_id(out_dir),
-                    blueprint=blueprint(systems[0], series),
-                    text={"/run/status": f"ensemble of {size}; this recording: member 0, "
-                                         + status_text(first),
-                          "/run/config": job_config_yaml(cfg)})
-    metric_histograms(members, out_dir / "ensemble.png")
+    first = _record_member0(cfg, out_dir, systems, solver, noise[0], size,
+                            posts[0] if posts else PostOutput(),
+                            out["trajectories"][0] if record else None)
+    if int(cfg.ensemble.size) > 1:  # a distribution of replicates (a grid has its reports)
+        metric_histograms(members, out_dir / "ensemble.png")
     n_failed = int((out["status"] != 0).sum())
     if n_failed:
         log.warning("ensemble: %d of %d members stopped early (see metrics.csv)", n_failed, size)
     if (out["status"] == INTERRUPTED).any() or first.status == INTERRUPTED:
         raise RunInterrupted(f"ensemble interrupted (outputs up to then are in {out_dir})")
-    return EnsembleResult(systems, draws, out["acc"], out["status"], out["t_stop"], table)
+    values = {k: np.asarray(v) for k, v in plan.values.items()}
+    result = EnsembleResult(systems, values, out["acc"], out["status"], out["t_stop"], table,
+                            out.get("trajectories"), nodes, plan.index)
+    for name, node in (cfg.ensemble.get("reports") or {}).items():
+        if node is not None:
+            log.info("ensemble report %s", name)
+            instantiate(node, _partial_=True)(result, out_dir)
+    return result

@@ -56,10 +56,10 @@ def remove_if_empty(out_dir: str | Path) -> None:
 
 def check_config(cfg: DictConfig) -> None:
     """Everything a run checks before integrating, without integrating (build-only)."""
-    from hgo.ensemble_runner import prepare_ensemble
+    from hgo.ensemble_runner import is_ensemble, prepare_ensemble
     from hgo.runner import build
 
-    if cfg.ensemble.size != 0:
+    if is_ensemble(cfg):
         prepare_ensemble(cfg)
     else:
         build(cfg)
@@ -106,7 +106,7 @@ def run_job(cfg: DictConfig, out_dir: str | Path) -> int:
 
     ``resume=true``: a job whose directory already holds the complete outputs of the same
     composed config (:func:`is_complete`) is skipped; any other is run (again)."""
-    from hgo.ensemble_runner import run_ensemble
+    from hgo.ensemble_runner import is_ensemble, run_ensemble
     from hgo.runner import SimulationFailed, run
 
     if cfg.get("resume", False) and is_complete(cfg, out_dir):
@@ -114,7 +114,7 @@ def run_job(cfg: DictConfig, out_dir: str | Path) -> int:
         return 0
     try:
         (Path(out_dir) / DONE).unlink(missing_ok=True)
-        if cfg.ensemble.size != 0:
+        if is_ensemble(cfg):
             run_ensemble(cfg, out_dir)
         else:
             run(cfg, out_dir)

@@ -74,17 +74,12 @@ def window_max_error(system: System, acc: np.ndarray) -> dict[str, float]:
     return {o.name: float(acc[system.nxh + n + k]) for k, o in enumerate(system.observers)}
 
 
-def metrics_table(system: System, acc: np.ndarray, status: int, t_stop: float,
-                  extra_bounds: dict[tuple[str, str], float] | None = None,
-                  extra_rows: list[dict] | None = None,
-                  vacuous_factor: float = VACUOUS_FACTOR) -> pd.DataFrame:
-    """One row per (observer, quantity): empirical mean, bound, ratio, holds, run status.
-
-    ``extra_bounds`` fill the bound of the engine's rows, ``extra_rows`` (post-processing:
-    observer, postprocess, quantity, empirical, bound) are appended. A failed run
-    (status != 0) keeps its rows with ``empirical`` = NaN, the status ``failed``, the
-    stop time and the cause.
-    """
+def metric_rows(system: System, acc: np.ndarray, status: int, t_stop: float,
+                extra_bounds: dict[tuple[str, str], float] | None = None,
+                extra_rows: list[dict] | None = None,
+                vacuous_factor: float = VACUOUS_FACTOR) -> list[dict]:
+    """The rows of :func:`metrics_table` as dicts (an ensemble builds many without a
+    DataFrame each)."""
     extra_bounds = extra_bounds or {}
     observers = {o.name: o for o in system.observers}
     rows = []
@@ -98,9 +93,23 @@ def metrics_table(system: System, acc: np.ndarray, status: int, t_stop: float,
         row = metric_row(extra["observer"], extra["quantity"], float(extra["empirical"]),
                          extra.get("bound"), vacuous_factor)
         rows.append({**extra, **row})
-    table = pd.DataFrame(rows)
-    table["window"] = float(f"{acc[-1]:.12g}")  # a sum of steps: no round-off digits
-    table["status"] = status_word(status)
-    table["t_stop"] = float(t_stop)
-    table["message"] = STATUS[status]
+    run = {"window": float(f"{acc[-1]:.12g}"),  # a sum of steps: no round-off digits
+           "status": status_word(status), "t_stop": float(t_stop), "message": STATUS[status]}
+    return [{**row, **run} for row in rows]
+
+
+def metrics_table(system: System, acc: np.ndarray, status: int, t_stop: float,
+                  extra_bounds: dict[tuple[str, str], float] | None = None,
+                  extra_rows: list[dict] | None = None,
+                  vacuous_factor: float = VACUOUS_FACTOR) -> pd.DataFrame:
+    """One row per (observer, quantity): empirical mean, bound, ratio, holds, verdict, run
+    status.
+
+    ``extra_bounds`` fill the bound of the engine's rows, ``extra_rows`` (post-processing:
+    observer, postprocess, quantity, empirical, bound) are appended. A failed run
+    (status != 0) keeps its rows with ``empirical`` = NaN, the status ``failed``, the
+    stop time and the cause.
+    """
+    table = pd.DataFrame(metric_rows(system, acc, status, t_stop, extra_bounds, extra_rows,
+                                     vacuous_factor))
     return table[COLUMNS + [c for c in table.columns if c not in COLUMNS]]

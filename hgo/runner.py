@@ -28,6 +28,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from hgo.components import Controller, Observer, Plant
 from hgo.console import compact_table
+from hgo.decimate import check_recording, write_run_recording
 from hgo.engine.jit import compile_timer
 from hgo.engine.simulate import INTERRUPTED, SolverSettings, Trajectory, simulate
 from hgo.engine.system import System
@@ -36,7 +37,7 @@ from hgo.metrics import metrics_table, status_word
 from hgo.noise import NoiseModel
 from hgo.postprocess import PostOutput
 from hgo.progress import compile_progress
-from hgo.recording import Series, atomic_output, time_series_blueprint, write_recording
+from hgo.recording import Series, atomic_output, time_series_blueprint
 from hgo.runs import write_run_json
 from hgo.validate import check_cost as _check_sizes
 from hgo.validate import check_values
@@ -205,6 +206,7 @@ def build(cfg: DictConfig) -> Experiment:
     solver = solver_settings(cfg)
     vacuous_factor(cfg)
     figure_settings(cfg)
+    recording_settings(cfg)
     system = build_system(cfg)
     noise = _instantiate(cfg.noise, "noise", NoiseModel)
     noise.check_channels(len(system.plant.output_names))
@@ -291,6 +293,13 @@ def postprocess(cfg: DictConfig, exp: Experiment, traj: Trajectory) -> PostOutpu
 FIGURE_SETTINGS = ("format", "dpi")  # keys of the ``figures`` node that are not figures
 
 
+def recording_settings(cfg: DictConfig) -> None:
+    """``recording.mode`` and ``recording.max_rows``, checked before any integration."""
+    node = cfg.get("recording")
+    if node is not None:
+        check_recording(getattr(node.mode, "name", node.mode), node.max_rows)
+
+
 def figure_settings(cfg: DictConfig) -> tuple[str, float]:
     """``figures.format`` and ``figures.dpi``, checked (before any integration)."""
     from hgo.figures import FORMATS
@@ -370,10 +379,11 @@ def run(cfg: DictConfig, out_dir: str | Path) -> RunResult:
     exp, traj, table = mem.experiment, mem.trajectory, mem.metrics
     series = signals(exp.system, traj) + mem.post.series
     t1 = time.perf_counter()
-    write_recording(out_dir / "recording.rrd", traj.t, series,
-                    recording_id=recording_id(out_dir), blueprint=blueprint(exp.system, series),
-                    text={"/run/status": status_text(traj),
-                          "/run/config": job_config_yaml(cfg)})
+    write_run_recording(cfg.get("recording"), out_dir / "recording.rrd", traj.t, series,
+                        recording_id=recording_id(out_dir),
+                        blueprint=blueprint(exp.system, series),
+                        text={"/run/status": status_text(traj),
+                              "/run/config": job_config_yaml(cfg)})
     t_write = time.perf_counter() - t1
     log.info("simulated in %.3f s (compiling %.3f s); recording of %d samples x %d columns "
              "written in %.3f s", mem.simulate_seconds, mem.compile_seconds, len(traj.t),

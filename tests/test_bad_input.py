@@ -222,6 +222,15 @@ CORPUS: list[tuple[tuple[str, ...], str]] = [
     ((AK, "postprocess.ak.late_window=0"), "postprocess.ak"),
     ((AK, "postprocess.ak.late_window=10", "metrics.window=1"), "postprocess.ak.late_window"),
     ((AK, "postprocess.ak.transient=10"), "postprocess.ak.transient"),
+    # --- recording, figures, vacuous bounds, launcher -----------------------------------
+    ((SP, "recording.mode=bogus"), "recording.mode"),
+    ((SP, "recording.max_rows=1"), "recording.max_rows"),
+    ((SP, "recording.max_rows=abc"), "recording.max_rows"),
+    ((SP, "recording=nonexistent"), "recording"),
+    ((SP, "figures.format=jpg"), "figures.format"),
+    ((SP, "figures.dpi=0"), "figures.dpi"),
+    ((SP, "metrics.vacuous_factor=0.5"), "metrics.vacuous_factor"),
+    ((SP, "hydra/launcher=nonexistent"), "hydra.launcher"),
     # --- ensembles ------------------------------------------------------------------
     ((SP, "ensemble.size=-5"), "ensemble.size"),
     ((SP, "ensemble.size=1.5"), "ensemble.size"),

@@ -157,18 +157,21 @@ def _accumulate(t, z, y, xh, sq, prev, acc, win):
 
 @pjit
 def integrate_ensemble(Z0, D0, PP, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab,
-                       rho_const, bound, t_window, ACC, STATUS, T_STOP, ctl):
-    """Integrate many runs in parallel (one per row of Z0, D0, PP, noise), metrics only."""
+                       RHO, bound, t_window, ACC, STATUS, T_STOP, N_REC, ZR, DR, YR, MR, UR,
+                       XHR, ctl):
+    """Integrate many runs in parallel (one per row of Z0, D0, PP, noise, RHO: each member's
+    own constant spectral radius). Records (ZR..XHR, (members, n_out, k)) are filled only
+    when they have rows; otherwise metrics only. ``ctl`` is shared and only read."""
     n_members = Z0.shape[0]
     for i in prange(n_members):
-        empty = np.zeros((0, 1))
         z = Z0[i].copy()
         d = D0[i].copy()
         st, n_rec, t_stop = integrate(z, d, PP[i], noise[i], noise_dt, t_end, dt_out, h_max,
-                                      rtol, atol, stab, rho_const, bound, t_window, empty,
-                                      empty, empty, empty, empty, empty, ACC[i], ctl)
+                                      rtol, atol, stab, RHO[i], bound, t_window, ZR[i],
+                                      DR[i], YR[i], MR[i], UR[i], XHR[i], ACC[i], ctl)
         STATUS[i] = st
         T_STOP[i] = t_stop
+        N_REC[i] = n_rec
 
 
 # --- section: rk4 ---

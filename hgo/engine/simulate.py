@@ -231,20 +231,25 @@ def _reason(message: str) -> str:
     return message.strip().splitlines()[0] if message.strip() else "unknown error"
 
 
+def rho_const(system: System, solver: SolverSettings) -> float:
+    """The largest constant spectral radius (components without a ``stiffness`` hook) that
+    caps RK4's substeps; 0 for the adaptive methods (their error control sets the step)."""
+    if solver.method != "rk4":
+        return 0.0
+    return float(max([system.plant.spectral_radius]
+                     + [o.spectral_radius for o in system.observers
+                        if getattr(o, "stiffness", None) is None]))
+
+
 def _common_args(system: System, solver: SolverSettings, noise: Noise) -> tuple:
     """noise_dt, t_end, dt_out, h_max, rtol, atol, stab, rho_const, bound, t_window.
 
     RK4 caps its substeps at min(h_max, stab / rho) with rho the largest of the constant
     spectral radii (components without a ``stiffness`` hook) and of the hooks' values now.
     """
-    rho_const = max([system.plant.spectral_radius]
-                    + [o.spectral_radius for o in system.observers
-                       if getattr(o, "stiffness", None) is None])
     stab = solver.stability_safety * RK4_STABILITY if solver.method == "rk4" else 0.0
-    if solver.method != "rk4":
-        rho_const = 0.0
     return (float(noise.dt), float(solver.t_end), float(solver.dt_out), float(solver.h_max),
-            float(solver.rtol), float(solver.atol), float(stab), float(rho_const),
+            float(solver.rtol), float(solver.atol), float(stab), rho_const(system, solver),
             float(solver.state_bound), float(solver.t_window))
 
 
@@ -291,15 +296,19 @@ def simulate(system: System, solver: SolverSettings, noise: Noise,
 
 def simulate_ensemble(system: System, solver: SolverSettings, noise: list[Noise] | Noise,
                       params: np.ndarray, z0: np.ndarray,
-                      d0: np.ndarray | None = None) -> dict[str, np.ndarray]:
-    """Integrate many runs in parallel (numba ``prange``); metrics only, no trajectories.
+                      d0: np.ndarray | None = None, rho: np.ndarray | None = None,
+                      record: bool = False) -> dict:
+    """Integrate many runs in parallel (numba ``prange``) in one compiled call.
 
     ``params`` (M, n_p), ``z0`` (M, n_z) and ``d0`` (M, n_d; default: ``system.d0()`` for
     all) give one row per member (:func:`hgo.ensemble.stack_members` builds all three);
     ``noise`` is one :class:`Noise` per member (same ``dt``) or one shared by all.
-    ``system`` serves every member: its kernel and, for RK4, its constant spectral radii
-    cap the steps of all (see :func:`hgo.ensemble.stiffest_envelope`).
-    Returns ``acc`` (M, n_acc) window integrals, ``status`` (M,) and ``t_stop`` (M,).
+    ``system`` gives the kernel. ``rho`` (M,): each member's constant spectral radius that
+    caps its RK4 steps (:func:`rho_const` of the member's own system, so a member takes
+    the steps of its single run); default: ``system``'s for all.
+    Returns ``acc`` (M, n_acc) window integrals, ``status`` (M,) and ``t_stop`` (M,); with
+    ``record=True`` also ``trajectories``: one :class:`Trajectory` per member (memory:
+    M x n_out x all signals).
     """
     solver.validate()
     params = np.ascontiguousarray(params, float)
@@ -315,13 +324,27 @@ def simulate_ensemble(system: System, solver: SolverSettings, noise: list[Noise]
     d0 = np.tile(system.d0(), (n, 1)) if d0 is None else np.ascontiguousarray(d0, float)
     if d0.shape != (n, system.nd):
         raise ValueError(f"d0 must have shape ({n}, {system.nd}), got {d0.shape}")
+    args = list(_common_args(system, solver, members[0]))
+    rho = np.full(n, args[7]) if rho is None else np.ascontiguousarray(rho, float)
+    if rho.shape != (n,):
+        raise ValueError(f"rho must have shape ({n},), got {rho.shape}")
+    args[7] = rho
     acc = np.zeros((n, system.n_acc()))
     status = np.zeros(n, dtype=np.int64)
     t_stop = np.zeros(n)
-    args = _common_args(system, solver, members[0])
+    n_rec = np.zeros(n, dtype=np.int64)
+    n_out = int(round(solver.t_end / solver.dt_out)) + 1 if record else 0
+    ny, nu = samples.shape[2], len(system.plant.input_names)
+    recs = [np.zeros((n, n_out, k)) for k in (system.nz, system.nd, ny, ny, nu, system.nxh)]
     _call(system, solver.method, "integrate_ensemble", z0, d0, params, samples, *args, acc,
-          status, t_stop, _control(solver))
-    return {"acc": acc, "status": status, "t_stop": t_stop}
+          status, t_stop, n_rec, *recs, _control(solver))
+    out = {"acc": acc, "status": status, "t_stop": t_stop}
+    if record:
+        t = np.arange(n_out) * solver.dt_out
+        out["trajectories"] = [
+            Trajectory(t[:k], *(r[i, :k] for r in recs), int(status[i]), float(t_stop[i]),
+                       acc[i]) for i, k in enumerate(n_rec)]
+    return out
 
 
 def no_noise(ny: int) -> Noise:

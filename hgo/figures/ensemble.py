@@ -12,9 +12,10 @@ from hgo.figures import save_figure
 
 
 def metric_histograms(members: pd.DataFrame, path: Path) -> Path:
-    """One histogram (log10 of the value) per (observer, quantity), bound marked if any."""
-    groups = list(members[members.status == "ok"].groupby(["observer", "quantity"],
-                                                          sort=False))
+    """One histogram (log10 of the value) per (observer, quantity) with a finite value,
+    bound marked if any."""
+    ok = members[(members.status == "ok") & np.isfinite(members.empirical.astype(float))]
+    groups = list(ok.groupby(["observer", "quantity"], sort=False))
     n = max(1, len(groups))
     fig, axes = plt.subplots(n, 1, figsize=(7, 2.2 * n), squeeze=False)
     for ax, ((obs, quantity), grp) in zip(axes[:, 0], groups, strict=False):

@@ -277,20 +277,25 @@ def _tradeoff_point(job: Path) -> dict:
     cfg_path, csv = job / ".hydra" / "config.yaml", job / "metrics.csv"
     if not cfg_path.exists() or not csv.exists():
         raise ValueError("no metrics.csv (the job crashed before writing it)")
-    cfg = yaml.safe_load(cfg_path.read_text())
+    return tradeoff_point(job.name, yaml.safe_load(cfg_path.read_text()), pd.read_csv(csv))
+
+
+def tradeoff_point(label: str, cfg: dict, table) -> dict:
+    """(eps, mu, r, bound) of one run from its config (``observer``, ``controller``,
+    ``noise`` nodes as plain dicts) and its metrics rows; ValueError naming what is
+    missing."""
     observers = cfg.get("observer") or {}
     name = (cfg.get("controller") or {}).get("observer") or next(iter(observers))
     obs = observers[name]
     if obs.get("eps2") is not None:
         raise ValueError(f"observer {name} is switched; the trade-off needs a fixed gain")
-    table = pd.read_csv(csv)
     if (table.status != "ok").any():
         raise ValueError(f"run failed at t = {table.t_stop.iloc[0]:g} s "
                          f"({table.message.iloc[0]})")
     row = table[(table.observer == name) & (table.quantity == "ultimate_bound_err")]
     if row.empty:
         raise ValueError("no ultimate_bound_err row (postprocess ak_metrics missing)")
-    return {"job": job.name, "eps": float(obs["eps1"]), "mu": float(cfg["noise"]["amplitude"]),
+    return {"job": label, "eps": float(obs["eps1"]), "mu": float(cfg["noise"]["amplitude"]),
             "noise_period": float(cfg["noise"]["period"]), "r": len(obs["alpha1"]),
             "bound": float(row.empirical.iloc[0])}
 
@@ -303,24 +308,51 @@ def tradeoff_report(sweep: str | Path, out: str | Path | None = None) -> dict:
     ``tradeoff.md`` and ``tradeoff.png``. Failed or unreadable jobs are skipped and listed.
     Returns a dict with the analysis, the paths and the skipped jobs.
     """
-    import pandas as pd
-
-    from hgo.papers.ahrens_khalil.postprocess import analyse_tradeoff
-
     sweep = Path(sweep)
-    out = Path(out) if out else sweep
-    out.mkdir(parents=True, exist_ok=True)
     points, skipped = [], []
     for job in _job_dirs(sweep):
         try:
             points.append(_tradeoff_point(job))
         except (ValueError, KeyError, StopIteration) as err:
             skipped.append(f"{job.name}: {err}")
+    return write_tradeoff_report(points, skipped, Path(out) if out else sweep,
+                                 f"sweep {sweep}")
+
+
+def tradeoff_ensemble(result, out_dir: str | Path) -> dict:
+    """:func:`tradeoff_report` of a grid ensemble (``ensemble.reports`` of
+    ``ak_tradeoff_grid``): one point per member, from its nodes and metrics rows."""
+    from omegaconf import OmegaConf
+
+    table = result.metrics
+    points, skipped = [], []
+    for i, nodes in enumerate(result.nodes):
+        cfg = {g: OmegaConf.to_container(v, resolve=True) if OmegaConf.is_config(v) else v
+               for g, v in nodes.items()}
+        label = f"member{result.index[i]}"
+        try:
+            points.append(tradeoff_point(label, cfg, table[table.member == str(result.index[i])]))
+        except (ValueError, KeyError, StopIteration) as err:
+            skipped.append(f"{label}: {err}")
+    report = write_tradeoff_report(points, skipped, Path(out_dir), f"grid ensemble {out_dir}")
+    for line in report["skipped"]:
+        print(f"ak_tradeoff: skipped {line}", file=sys.stderr)
+    return report
+
+
+def write_tradeoff_report(points: list[dict], skipped: list[str], out: Path,
+                          title: str) -> dict:
+    """The report of :func:`tradeoff_report` from its points (one dict per run)."""
+    import pandas as pd
+
+    from hgo.papers.ahrens_khalil.postprocess import analyse_tradeoff
+
+    out.mkdir(parents=True, exist_ok=True)
     pts = pd.DataFrame(points, columns=["job", "eps", "mu", "noise_period", "r", "bound"])
     paths = {"points": out / "tradeoff_points.csv", "fit": out / "tradeoff_fit.csv",
              "md": out / "tradeoff.md", "png": out / "tradeoff.png"}
     pts.to_csv(paths["points"], index=False)
-    lines = [f"# Noise trade-off (25), sweep {sweep}", ""]
+    lines = [f"# Noise trade-off (25), {title}", ""]
     if skipped:
         lines += ["**Skipped jobs:**", ""] + [f"- {s}" for s in skipped] + [""]
     analysis = None

@@ -1,0 +1,242 @@
+"""Sweeps at scale (issue 17): grid ensembles, recording modes, sweep memory, joblib.
+
+    python benchmarks/sweeps_bench.py [--quick] [--only grid,recording,memory,joblib]
+    python benchmarks/run.py --only sweeps [--quick]      # the same rows from run.py
+
+Rows (ratios are taken inside the same run; the machine may be shared):
+
+* grid: the 52-point ``ak_tradeoff_grid`` (one compiled ensemble call + the trade-off
+  report) warm in-process (median of 3) and as a whole process (``experiments/run.py``,
+  caches warm: the second of two runs); the multirun ``-m experiment=ak_tradeoff`` it
+  replaces (full run only); a 10,000-point grid over the Sanfelice & Praly oscillation
+  (``sp_ensemble`` with ``ensemble.grid`` of 100 p2 x 100 x^1(0), 200 s, DOP853), warm
+  in-process and whole process.
+* recording: problems A and B of ``run.py`` with 1,000,001 output samples: simulation,
+  ``write_recording`` of every series (full) and the decimated recording (min/max
+  envelope into 2^14 rows, :mod:`hgo.decimate`, envelope included), against the
+  simulation.
+* memory: a Hydra sweep of 1,000,001-sample runs (S-P ``sp_example``, 100 s output every
+  0.1 ms, full recordings), peak RSS of the sweep process after jobs 1, 10, ..., N
+  (``ru_maxrss`` read by a callback at each job end); flat = the last over the first.
+* joblib: ``sp_example`` runs of >= 1 s each (t_end scaled), sequential against
+  ``hydra/launcher=joblib`` with 2 workers, whole multirun wall time.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+from hydra.experimental.callback import Callback
+
+BENCH = Path(__file__).resolve().parent
+ROOT = BENCH.parent
+sys.path.insert(0, str(BENCH))
+RUN = [sys.executable, str(ROOT / "experiments" / "run.py")]
+DECIMATED_ROWS = 2**14
+SP_GRID_N = 100  # 100 x 100 points
+
+
+def _env() -> dict:
+    paths = [str(ROOT), str(BENCH), os.environ.get("PYTHONPATH", "")]
+    return dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in paths if p))
+
+
+def _wall(args: list[str]) -> float:
+    """Wall time of a subprocess (it must succeed)."""
+    t0 = time.perf_counter()
+    subprocess.run(args, cwd=ROOT, env=_env(), check=True, capture_output=True, text=True)
+    return time.perf_counter() - t0
+
+
+def sp_grid_override(n: int = SP_GRID_N) -> str:
+    p2 = ", ".join(f"{v:.6g}" for v in np.linspace(0.5, 3.0, n))
+    e0 = ", ".join(f"[{v:.6g}, 1.0]" for v in np.linspace(-3.0, 3.0, n))
+    return ("++ensemble.grid={observer.sign_indefinite.p2: [" + p2 + "], "
+            "observer.sign_indefinite.xhat0: [" + e0 + "]}")
+
+
+def _in_process(overrides: list[str], reps: int) -> tuple[float, object]:
+    """Median wall time of run_ensemble (compose excluded) after one warm-up run."""
+    from hgo.config import compose
+    from hgo.ensemble_runner import run_ensemble
+
+    with tempfile.TemporaryDirectory() as tmp:
+        cfg = compose(overrides, Path(tmp))
+        result = run_ensemble(cfg, tmp)
+        times = []
+        for _ in range(reps):
+            t0 = time.perf_counter()
+            result = run_ensemble(cfg, tmp)
+            times.append(time.perf_counter() - t0)
+    return float(np.median(times)), result
+
+
+def grid_rows(quick: bool) -> list[list]:
+    rows = []
+    t_ak, res = _in_process(["experiment=ak_tradeoff_grid"], 3)
+    n_ak = len(res.status)
+    with tempfile.TemporaryDirectory() as tmp:
+        cmd = [*RUN, "experiment=ak_tradeoff_grid", f"hydra.run.dir={tmp}/g"]
+        _wall(cmd)
+        w_ak = _wall(cmd)
+        w_multi = None if quick else _wall([*RUN, "-m", "experiment=ak_tradeoff",
+                                            f"hydra.sweep.dir={tmp}/m"])
+    rows.append([f"AK trade-off grid, {n_ak} points (ak_tradeoff_grid)", t_ak, w_ak,
+                 "-" if w_multi is None else f"{w_multi:.3g}",
+                 "-" if w_multi is None else f"{w_multi / w_ak:.1f}x"])
+    sp = ["experiment=sp_ensemble", "ensemble.size=0", sp_grid_override()]
+    t_sp, res = _in_process(sp, 1)
+    with tempfile.TemporaryDirectory() as tmp:
+        w_sp = _wall([*RUN, *sp, f"hydra.run.dir={tmp}/s"])
+    rows.append([f"S-P grid, {len(res.status)} points (sp_ensemble, 200 s, DOP853)", t_sp,
+                 w_sp, "-", "-"])
+    return rows
+
+
+def recording_rows(quick: bool) -> list[list]:
+    import run as b
+
+    from hgo.decimate import envelope
+    from hgo.engine.simulate import SolverSettings, no_noise, simulate
+    from hgo.recording import write_recording
+    from hgo.runner import signals
+
+    n_log = 10**6
+    cases = [(f"B: {b.B_T:g} s, output every {b.B_T / n_log * 1e3:g} ms, "
+              f"{b.fast_label(**b.FAST_B)}", b.b_system(),
+              b.b_solver(dt_out=b.B_T / n_log, **b.FAST_B), no_noise(1))]
+    t_a = n_log * b.A_NOISE_DT
+    cases.append((f"A: {t_a:g} s, output every {b.A_NOISE_DT * 1e3:g} ms, RK4", b.a_system(),
+                  SolverSettings(t_end=t_a, dt_out=b.A_NOISE_DT, method="rk4", h_max=1.0),
+                  b.a_noise(t_end=t_a)))
+    reps = 1 if quick else 3
+    rows = []
+    for label, system, solver, noise in cases:
+        simulate(system, solver, noise)
+        (t_sim, tr), = b.interleaved_median_times([lambda s=system, so=solver, n=noise:
+                                                   simulate(s, so, n)], reps)
+        series = signals(system, tr)
+        with tempfile.TemporaryDirectory() as tmp:
+            path = Path(tmp) / "run.rrd"
+
+            def full(path=path, tr=tr, series=series):
+                write_recording(path, tr.t, series, recording_id="bench")
+
+            def decimated(path=path, tr=tr, series=series):
+                t_d, s_d = envelope(tr.t, series, DECIMATED_ROWS)
+                write_recording(path, t_d, s_d, recording_id="bench")
+
+            (t_full, _), (t_dec, _) = b.interleaved_median_times([full, decimated], reps)
+            size_dec = path.stat().st_size
+        rows.append([label, t_sim, t_full, t_full / t_sim, t_dec, t_dec / t_sim,
+                     size_dec / 1e6])
+    return rows
+
+
+class PeakRSS(Callback):
+    """Hydra callback: appends ``job_number peak_rss_kB`` of this process at each job end."""
+
+    def __init__(self, path: str) -> None:
+        self.path = path
+
+    def on_job_end(self, config, job_return, **kwargs) -> None:
+        rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+        with open(self.path, "a") as fh:
+            fh.write(f"{config.hydra.job.num} {rss}\n")
+
+
+def memory_rows(quick: bool) -> list[list]:
+    n_jobs = 20 if quick else 100
+    with tempfile.TemporaryDirectory() as tmp:
+        log = Path(tmp) / "rss.txt"
+        t0 = time.perf_counter()
+        subprocess.run([*RUN, "-m", "experiment=sp_example", "solver.t_end=100",
+                        "solver.dt_out=0.0001", "metrics.window=25",
+                        f"seed=range({n_jobs})", f"hydra.sweep.dir={tmp}/m",
+                        "+hydra.callbacks.rss._target_=sweeps_bench.PeakRSS",
+                        f"+hydra.callbacks.rss.path={log}"],
+                       cwd=ROOT, env=_env(), check=True, capture_output=True, text=True)
+        wall = time.perf_counter() - t0
+        rss = np.loadtxt(log, dtype=np.int64).reshape(-1, 2)
+        rrd_mb = (Path(tmp) / "m" / "job0" / "recording.rrd").stat().st_size / 1e6
+    peaks = {int(j): kb / 1024 for j, kb in rss}
+    marks = [0, 9, n_jobs // 2 - 1, n_jobs - 1]
+    return [[f"{n_jobs} jobs of 1,000,001 samples (sp_example, full recordings of "
+             f"{rrd_mb:.0f} MB)", wall, *[peaks[m] for m in marks],
+             peaks[n_jobs - 1] / peaks[9]]]
+
+
+def joblib_rows(quick: bool) -> list[list]:
+    """Sequential against joblib (2 workers): 4 jobs of >= 1 s each (sp_example, t_end
+    scaled to the horizon of one 1 s simulation here)."""
+    rows = []
+    for t_end in ([2000.0] if quick else [2000.0, 200.0]):
+        args = ["-m", "experiment=sp_example", f"solver.t_end={t_end:g}",
+                "solver.dt_out=0.1", "recording=off", "seed=0,1,2,3"]
+        with tempfile.TemporaryDirectory() as tmp:
+            _wall([*RUN, *args[:-1], "seed=0", f"hydra.sweep.dir={tmp}/w"])  # compile
+            job = _job_seconds([*RUN, *args[:-1], "seed=0", f"hydra.sweep.dir={tmp}/j"],
+                               Path(tmp) / "j")
+            seq = _wall([*RUN, *args, f"hydra.sweep.dir={tmp}/s"])
+            par = _wall([*RUN, *args, "hydra/launcher=joblib", "hydra.launcher.n_jobs=2",
+                         f"hydra.sweep.dir={tmp}/p"])
+        rows.append([f"4 jobs of sp_example t_end={t_end:g} s", job, seq, par, seq / par])
+    return rows
+
+
+def _job_seconds(cmd: list[str], sweep: Path) -> float:
+    """The 'simulated in' time a job logs (one job of the sweep)."""
+    subprocess.run(cmd, cwd=ROOT, env=_env(), check=True, capture_output=True, text=True)
+    text = next(sweep.glob("*/*.log")).read_text()
+    return float(text.split("simulated in ")[1].split(" s")[0])
+
+
+def bench(quick: bool, only: set[str] | None = None) -> dict:
+    """Print the tables; returns the headline numbers."""
+    from run import table
+
+    out: dict = {}
+    if only is None or "grid" in only:
+        rows = grid_rows(quick)
+        table("Grid ensembles: one compiled call (in-process: run_ensemble after a warm-up; "
+              "whole process: experiments/run.py, caches warm)",
+              ["grid", "in-process warm (s)", "whole process (s)",
+               "multirun -m of the same points (s)", "multirun / whole process"], rows)
+        out.update(ak_grid_s=rows[0][2], sp_grid_s=rows[1][2])
+    if only is None or "recording" in only:
+        rows = recording_rows(quick)
+        table(f"Recording modes: 1,000,001 samples, full against decimated "
+              f"({DECIMATED_ROWS} rows, min/max envelope)",
+              ["run", "simulate (s)", "write full (s)", "full / simulation",
+               "write decimated (s)", "decimated / simulation", "decimated file (MB)"], rows)
+        out.update(decimated_over_sim_B=rows[0][5], decimated_over_sim_A=rows[1][5])
+    if only is None or "memory" in only:
+        rows = memory_rows(quick)
+        table("Sweep memory: peak RSS of the sweep process (MB) after job k",
+              ["sweep", "wall (s)", "after job 1", "after job 10", "after half",
+               "after the last", "last / job 10"], rows)
+        out.update(rss_last_over_10=rows[0][-1])
+    if only is None or "joblib" in only:
+        rows = joblib_rows(quick)
+        table("Local parallelism: 4-job multirun, sequential against joblib (2 workers)",
+              ["sweep", "one job's simulation (s)", "sequential (s)", "joblib n_jobs=2 (s)",
+               "speedup"], rows)
+        out.update(joblib_speedup=rows[0][-1])
+    return out
+
+
+if __name__ == "__main__":
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--only", help="comma-separated: grid, recording, memory, joblib")
+    args = ap.parse_args()
+    result = bench(args.quick, set(args.only.split(",")) if args.only else None)
+    print("\nsweeps: " + " ".join(f"{k}={v:.3g}" for k, v in result.items()))

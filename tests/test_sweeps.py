@@ -1,0 +1,262 @@
+"""Sweeps at scale (issue 17): grid ensembles, shards, recording modes."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+import yaml
+from omegaconf import OmegaConf
+
+from hgo.decimate import bucket_edges, envelope, write_run_recording
+from hgo.ensemble_runner import run_ensemble
+from hgo.grid import expand_grid, parse_shard, shard_indices
+from hgo.papers.ahrens_khalil.figures import tradeoff_point, write_tradeoff_report
+from hgo.recording import Series, read_recording
+from hgo.runner import job_config_yaml, simulate_config
+
+SP_GRID = ["experiment=sp_ensemble", "ensemble.size=0", "solver.t_end=20",
+           "metrics.window=5",
+           "++ensemble.grid={observer.sign_indefinite.p2: [0.5, 1.5, 3.0], "
+           "observer.sign_indefinite.xhat0: [[1.0, 1.0], [-2.0, 0.5]]}"]
+
+
+def test_grid_is_the_cartesian_product_first_key_slowest():
+    points = expand_grid({"a": [1, 2], "b": ["x", "y", "z"]})
+    assert points["a"] == [1, 1, 1, 2, 2, 2]
+    assert points["b"] == ["x", "y", "z"] * 2
+    with pytest.raises(ValueError, match="ensemble.grid.a"):
+        expand_grid({"a": []})
+    with pytest.raises(ValueError, match="ensemble.grid.a"):
+        expand_grid({"a": 3})
+
+
+def test_shards_partition_the_members():
+    parts = [shard_indices(11, f"{i}/3") for i in range(3)]
+    np.testing.assert_array_equal(np.concatenate(parts), np.arange(11))
+    assert parse_shard(None) == (0, 1)
+    for bad in ("3/3", "-1/2", "a/b", "1"):
+        with pytest.raises(ValueError, match="ensemble.shard must be 'i/N'"):
+            parse_shard(bad)
+
+
+def test_grid_members_equal_single_runs_and_carry_their_values(compose, tmp_path):
+    """Each grid member's window means equal the single run of its values (rel 1e-12),
+    and its rows carry the member's grid values."""
+    cfg = compose(SP_GRID, tmp_path)
+    result = run_ensemble(cfg, tmp_path)
+    table = pd.read_csv(tmp_path / "metrics.csv")
+    members = table[table.member != "all"]
+    assert sorted(members.member.astype(int).unique()) == list(range(6))
+    p2 = result.draws["observer.sign_indefinite.p2"]
+    xhat0 = result.draws["observer.sign_indefinite.xhat0"]
+    np.testing.assert_array_equal(p2, [0.5, 0.5, 1.5, 1.5, 3.0, 3.0])
+    for i in (1, 4):
+        single = compose(["experiment=sp_ensemble", "ensemble.size=0", "solver.t_end=20",
+                          "metrics.window=5", f"observer.sign_indefinite.p2={float(p2[i])!r}",
+                          "observer.sign_indefinite.xhat0="
+                          f"[{float(xhat0[i][0])!r},{float(xhat0[i][1])!r}]"])
+        expected = simulate_config(single).metrics.set_index(["observer", "quantity"])
+        rows = members[members.member == str(i)].set_index(["observer", "quantity"])
+        assert (rows["observer.sign_indefinite.p2"] == p2[i]).all()
+        for key in expected.index:
+            assert rows.loc[key, "empirical"] == pytest.approx(
+                expected.loc[key, "empirical"], rel=1e-12), (i, key)
+
+
+def test_grid_combines_with_random_draws_and_seeds(compose, tmp_path):
+    """2 grid points x 3 replicates: replicate j has the same draw and seed seed + j at
+    every point."""
+    cfg = compose(["experiment=sp_ensemble", "ensemble.size=3", "solver.t_end=2",
+                   "metrics.window=1", "seed=7",
+                   "++ensemble.grid={plant.nu1: [2.0, 3.0]}"], tmp_path)
+    result = run_ensemble(cfg, tmp_path)
+    table = result.metrics[result.metrics.member != "all"]
+    seeds = table.groupby("member").seed.first().reindex([str(i) for i in range(6)])
+    assert seeds.tolist() == [7, 8, 9, 7, 8, 9]
+    p2 = result.draws["observer.sign_indefinite.p2"]
+    np.testing.assert_array_equal(p2[:3], p2[3:])
+    assert len(set(p2[:3])) == 3
+    np.testing.assert_array_equal(result.draws["plant.nu1"], [2.0] * 3 + [3.0] * 3)
+
+
+def test_grid_rejects_keys_shared_by_all_members(compose, tmp_path):
+    cfg = compose(["experiment=sp_ensemble", "++ensemble.grid={solver.rtol: [1e-6, 1e-7]}"],
+                  tmp_path)
+    with pytest.raises(ValueError, match="ensemble.grid.solver.rtol: only keys under"):
+        run_ensemble(cfg, tmp_path)
+
+
+def test_merged_shards_equal_the_unsharded_table(compose, tmp_path):
+    """Three shards of the 6-member grid, concatenated, give the unsharded member rows."""
+    whole = run_ensemble(compose(SP_GRID, tmp_path / "all"), tmp_path / "all").metrics
+    parts = [run_ensemble(compose([*SP_GRID, f"++ensemble.shard={i}/3"], tmp_path / str(i)),
+                          tmp_path / str(i)).metrics for i in range(3)]
+    merged = pd.concat([p[p.member != "all"] for p in parts], ignore_index=True)
+    pd.testing.assert_frame_equal(merged, whole[whole.member != "all"].reset_index(drop=True))
+
+
+@pytest.fixture(scope="module")
+def ak_grid(tmp_path_factory):
+    from hgo.config import compose
+
+    out = tmp_path_factory.mktemp("ak_grid")
+    return run_ensemble(compose(["experiment=ak_tradeoff_grid"], out), out), out
+
+
+def test_ak_tradeoff_grid_fit_equals_the_multirun_fit(ak_grid, compose, tmp_path):
+    """The 52-point trade-off fit of (25) from the grid ensemble equals the fit from the
+    52 jobs of ``-m experiment=ak_tradeoff`` (each job's own composed config and single
+    run, as the multirun runs it): points and fit to 1e-9 relative."""
+    result, out = ak_grid
+    grid = result.draws
+    points = []
+    for k, (eps, mu) in enumerate(zip(grid["observer.fixed.eps1"], grid["noise.amplitude"],
+                                      strict=True)):
+        cfg = compose(["experiment=ak_tradeoff", f"observer.fixed.eps1={float(eps)!r}",
+                       f"noise.amplitude={float(mu)!r}"])
+        job = yaml.safe_load(job_config_yaml(cfg))
+        points.append(tradeoff_point(f"job{k}", job, simulate_config(cfg).metrics))
+    multirun = write_tradeoff_report(points, [], tmp_path, "multirun")
+    ensemble = pd.read_csv(out / "tradeoff_points.csv")
+    assert len(ensemble) == 52
+    np.testing.assert_allclose(ensemble.bound, [p["bound"] for p in points], rtol=1e-9)
+    fit_m = pd.DataFrame(multirun["analysis"].per_mu)
+    fit_e = pd.read_csv(out / "tradeoff_fit.csv")
+    for col in ("c1", "c2", "eps_star_fit", "eps_star_grid"):
+        np.testing.assert_allclose(fit_e[col], fit_m[col], rtol=1e-9, err_msg=col)
+    q_m = multirun["analysis"].power_fit.exponent
+    md = (out / "tradeoff.md").read_text()
+    assert f"| fit of (25) per mu | {q_m:.4f} |" in md
+    assert math.isfinite(q_m) and (out / "tradeoff.png").exists()
+
+
+# --- recording modes ------------------------------------------------------------------------
+
+def test_envelope_keeps_every_peak_and_fits_max_rows():
+    """A one-sample spike in each column and each column's extremes per bucket survive."""
+    rng = np.random.default_rng(0)
+    n, max_rows = 100_003, 1024
+    t = np.arange(n) * 1e-3
+    values = rng.normal(size=(n, 2))
+    values[54_321, 0], values[777, 1] = 50.0, -60.0
+    t_dec, (dec,) = envelope(t, [Series("/x", ["a", "b"], values)], max_rows)
+    assert len(t_dec) <= max_rows and np.all(np.diff(t_dec) > 0)
+    assert dec.values.max(axis=0)[0] == 50.0 and dec.values.min(axis=0)[1] == -60.0
+    edges = bucket_edges(n, max_rows)
+    for k in (0, 17, len(edges) - 2):
+        block = values[edges[k]:edges[k + 1]]
+        np.testing.assert_array_equal(dec.values[2 * k], block.min(axis=0))
+        np.testing.assert_array_equal(dec.values[2 * k + 1], block.max(axis=0))
+        assert t_dec[2 * k] == t[edges[k]] and t_dec[2 * k + 1] == t[edges[k + 1] - 1]
+    same_t, (same,) = envelope(t[:1000], [Series("/x", ["a", "b"], values[:1000])], 1024)
+    np.testing.assert_array_equal(same_t, t[:1000])
+    np.testing.assert_array_equal(same.values, values[:1000])
+
+
+@pytest.mark.parametrize("mode", ["decimated", "off"])
+def test_recording_modes_never_change_metrics(compose, tmp_path, mode):
+    """metrics.csv is the same in full, decimated and off; decimated writes <= max_rows
+    rows and says so in /run/config; off writes no recording."""
+    from hgo.runner import run
+
+    base = ["experiment=sp_fig3", "solver.t_end=20", "metrics.window=5", "figures={}"]
+    full = run(compose(base, tmp_path / "full"), tmp_path / "full").metrics
+    other = run(compose([*base, f"recording={mode}", "recording.max_rows=256"],
+                        tmp_path / mode), tmp_path / mode).metrics
+    pd.testing.assert_frame_equal(full, other)
+    rrd = tmp_path / mode / "recording.rrd"
+    if mode == "off":
+        assert not rrd.exists()
+        return
+    rec = read_recording(rrd)
+    assert len(rec["sim_time"]) == 256 < len(read_recording(tmp_path / "full" /
+                                                            "recording.rrd")["sim_time"])
+    full_r = read_recording(tmp_path / "full" / "recording.rrd")["/observer/sign_indefinite/r"]
+    assert rec["/observer/sign_indefinite/r"].max() == full_r.max()  # the peak stays
+
+
+def test_decimated_recording_says_so_in_run_config(monkeypatch, tmp_path):
+    captured = {}
+    monkeypatch.setattr("hgo.decimate.write_recording",
+                        lambda path, t, series, text, **kw: captured.update(text=text, t=t))
+    node = OmegaConf.create({"mode": "decimated", "max_rows": 64})
+    t = np.linspace(0, 1, 1001)
+    write_run_recording(node, tmp_path / "r.rrd", t, [Series("/x", ["a"], t[:, None])],
+                        text={"/run/config": "seed: 0\n"}, recording_id="x")
+    assert captured["text"]["/run/config"].startswith(
+        "# recording.mode=decimated: min/max envelope of 1001 samples in 32 buckets")
+    assert captured["text"]["/run/config"].endswith("seed: 0\n") and len(captured["t"]) == 64
+    with pytest.raises(ValueError, match="recording.max_rows must be an integer >= 2"):
+        write_run_recording(OmegaConf.create({"mode": "full", "max_rows": 1}), tmp_path / "r",
+                            t, [], text={}, recording_id="x")
+
+
+# --- beyond one machine ---------------------------------------------------------------------
+
+def test_every_configured_target_is_importable_from_the_package():
+    """Every ``_target_`` of conf/ (callbacks, figures, combiners, reports) lives in ``hgo``
+    and imports: a launcher that runs jobs or callbacks elsewhere finds them."""
+    from hydra.utils import get_object
+
+    from hgo.config import conf_dir
+
+    targets = set()
+    for path in conf_dir().rglob("*.yaml"):
+        for line in path.read_text().splitlines():
+            key, _, value = line.strip().partition(":")
+            if key == "_target_" and "hydra_plugins" not in value:
+                targets.add(value.strip())
+    assert "hgo.aggregate.AggregateCallback" in targets and len(targets) > 10
+    for target in sorted(targets):
+        assert target.startswith("hgo."), target
+        assert get_object(target) is not None, target
+
+
+@pytest.mark.slow
+def test_submitit_local_sweep_with_its_aggregation_callback(tmp_path):
+    """``-m experiment=sp_fig3 hydra/launcher=submitit_local``: 3 jobs on submitit's local
+    executor (one process each), then the sweep's AggregateCallback combines them; the
+    grid ensemble ``sp_fig3_grid`` of the same points gives the same metrics_all.csv
+    values (rel 1e-9) and its own compare.png."""
+    import os
+    import subprocess
+    import sys
+
+    from hgo.config import conf_dir
+
+    root = conf_dir().parent
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(root),
+                                                       os.environ.get("PYTHONPATH", "")]))
+    sweep = tmp_path / "sweep"
+    subprocess.run([sys.executable, str(root / "experiments" / "run.py"), "-m",
+                    "experiment=sp_fig3", "hydra/launcher=submitit_local", "solver.t_end=10",
+                    "metrics.window=5", "figures={}", f"hydra.sweep.dir={sweep}"],
+                   cwd=tmp_path, env=env, check=True, capture_output=True, text=True,
+                   timeout=600)
+    assert len(list((sweep / ".submitit").glob("*/*_result.pkl"))) == 3
+    rows = pd.read_csv(sweep / "metrics_all.csv")
+    assert sorted(rows.job.unique()) == ["job0", "job1", "job2"]
+    assert set(rows.status) == {"ok"}
+    p2 = {job: float(o.split("p2=")[1].split()[0]) for job, o in
+          rows.groupby("job").overrides.first().items()}
+    assert p2 == {"job0": 3.0, "job1": 2.0, "job2": 1.5}
+    assert (sweep / "compare.png").stat().st_size > 0
+    assert "job2" in (sweep / "metrics_all.md").read_text()
+    # the grid ensemble of the same points writes the same table (member k = job k)
+    from hgo.config import compose
+
+    grid_dir = tmp_path / "grid"
+    run_ensemble(compose(["experiment=sp_fig3_grid", "solver.t_end=10", "metrics.window=5"],
+                         grid_dir), grid_dir)
+    grid = pd.read_csv(grid_dir / "metrics_all.csv")
+    assert (grid_dir / "compare.png").stat().st_size > 0
+    key = ["observer", "postprocess", "quantity"]
+    for k in range(3):
+        a = rows[rows.job == f"job{k}"].fillna({"postprocess": ""}).set_index(key)
+        b = grid[grid.job == f"member{k}"].fillna({"postprocess": ""}).set_index(key)
+        assert list(a.index) == list(b.index)
+        np.testing.assert_allclose(b.empirical, a.empirical, rtol=1e-9, equal_nan=True)
+        np.testing.assert_allclose(b.bound, a.bound, rtol=1e-9, equal_nan=True)
