@@ -88,13 +88,13 @@ def _start(z, d, m, P, w, y, u, xh, sq, prev, acc, win, noise, bound, t_end, dt_
         acc[j] = 0.0
     system_update(0.0, z, d, m, P, w)
     status = _state_status(z, bound)
-    _emit(np.int64(0), 0.0, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0, tol,
+    _emit(np.int64(0), 0.0, z, d, m, P, w, y, u, xh, sq, prev, acc, win, t_win0, tol,
           Z, D, Y, M, U, XH)
     return status, n_out, tol, t_win0
 
 
 @ijit
-def _emit(k, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0, tol,
+def _emit(k, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, t_win0, tol,
           Z, D, Y, M, U, XH):
     """Output sample k at time t: record it, and add it to the trailing-window metrics."""
     system_outputs(t, z, d, m, P, w, y, u, xh)
@@ -256,7 +256,7 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
                     m[i] = noise[idx, i]
             if t_noise >= t_out:
                 break
-        _emit(k_out, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0, tol,
+        _emit(k_out, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, t_win0, tol,
               Z, D, Y, M, U, XH)
     return 0, n_out, t
 
@@ -362,7 +362,7 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
                         _dense_prep(t, hh, z, zt, d, m, P, w, K, F, zo)
                         prepared = True
                     _dense_eval((t_o - t) / hh, z, F, zo)
-                    _emit(k_out, t_o, zo, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out,
+                    _emit(k_out, t_o, zo, d, m, P, w, y, u, xh, sq, prev, acc, win,
                           t_win0, tol, Z, D, Y, M, U, XH)
                 k_out += 1
             for i in range(nz):
@@ -392,7 +392,7 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
             if last:
                 break
             while k_out < n_out and k_out * dt_out <= t + tol:  # an output on the step end
-                _emit(k_out, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0,
+                _emit(k_out, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, t_win0,
                       tol, Z, D, Y, M, U, XH)
                 k_out += 1
         if t_seg < t_end:  # the next noise sample holds from here on
@@ -402,7 +402,7 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
                 m[i] = noise[idx, i]
             fsal = False
         while k_out < n_out and k_out * dt_out <= t + tol:
-            _emit(k_out, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0,
+            _emit(k_out, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, t_win0,
                   tol, Z, D, Y, M, U, XH)
             k_out += 1
     return 0, n_out, t
