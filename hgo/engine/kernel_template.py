@@ -26,7 +26,8 @@ saturations) runs after every step, so switching instants are step boundaries to
   step's discrete update (and after the noise sample change when they coincide with one).
 
 Status codes: 0 ok, 1 non-finite state, 2 state beyond ``bound``, 3 step-size underflow,
-4 non-finite step size (a NaN/inf in the right-hand side or its parameters), 5 step limit
+4 non-finite step size or error norm (a NaN/inf in the right-hand side or its
+parameters: the step shrinks to underflow on NaN error norms), 5 step limit
 ``ctl[1]`` reached, 6 interrupted (``ctl[0]`` set by another thread: Ctrl-C). ``ctl`` is
 checked after every step (a load): the run stops within one step of a request, without
 any change to the integration itself.
@@ -329,6 +330,7 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
     h = _initial_step(t, z, d, m, P, w, k1, zo, zt, rtol, atol, h_max)
     fsal = True  # k1 holds f(t, z) for the current noise sample and discrete state
     retried = False  # the step being tried follows a rejection
+    nonfinite = False  # the last trial's error norm was NaN/inf
     while k_out < n_out:
         t_seg = (k_noise + 1) * noise_dt
         if t_seg >= t_end - tol:
@@ -342,15 +344,16 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
             if last:
                 hh = t_seg - t
             if not hh >= 1e-14 * max(1.0, abs(t)):  # (NaN fails every comparison)
-                return 3 if math.isfinite(hh) else 4, k_out, t
+                return 4 if nonfinite or not math.isfinite(hh) else 3, k_out, t
             n_steps += 1
             if n_steps > max_steps:
                 return 5, k_out, t
             if ctl[0] != 0:
                 return 6, k_out, t
             err = _trial(t, hh, z, d, m, P, w, K, zt, rtol, atol)
+            nonfinite = not math.isfinite(err)  # the underflow it leads to has this cause
             if not err <= 1.0:  # rejected (or non-finite)
-                h = hh * (0.2 if not math.isfinite(err) else max(0.2, 0.9 * err ** ERR_EXP))
+                h = hh * (0.2 if nonfinite else max(0.2, 0.9 * err ** ERR_EXP))
                 retried = True
                 continue
             t_new = t_seg if last else t + hh
