@@ -424,3 +424,18 @@ def read_recording(path: str | Path, allow_incomplete: bool = False) -> dict[str
             entity = name[: -len(_SCALARS_SUFFIX)]
             out[entity] = _column_values(table.column(name), table.num_rows)
     return out
+
+
+def read_texts(path: str | Path) -> dict[str, str]:
+    """The static text documents of a recording (e.g. ``/run/status``), entity -> text."""
+    from rerun.chunk import RrdReader
+
+    table = RrdReader(Path(path)).stream().collect().reader(index=None).to_arrow_table()
+    suffix = ":TextDocument:text"
+    out = {}
+    for name in table.column_names:
+        if name.endswith(suffix):
+            values = [v for v in table.column(name).to_pylist() if v]
+            if values:
+                out[name[: -len(suffix)]] = str(values[0][0])
+    return out

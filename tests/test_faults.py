@@ -123,7 +123,7 @@ def test_ctrl_c_stops_a_long_compiled_integration_within_a_second(tmp_path):
 
     import pandas as pd
 
-    from hgo.recording import read_recording
+    from hgo.recording import read_recording, read_texts
 
     warm = _run_cli([*SHORT, f"hydra.run.dir={tmp_path}/warm"], tmp_path)  # compile
     assert warm.wait(timeout=300) == 0, warm.stderr.read()
@@ -149,6 +149,7 @@ def test_ctrl_c_stops_a_long_compiled_integration_within_a_second(tmp_path):
     assert 0 < t_stop < 100000
     rec = read_recording(run_dir / "recording.rrd")
     assert rec["sim_time"][-1] <= t_stop and len(rec["sim_time"]) > 1
+    assert read_texts(run_dir / "recording.rrd")["/run/status"].startswith("interrupted at t")
     assert not list(run_dir.glob("*.partial"))
 
 
