@@ -17,7 +17,14 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 
 def save_figure(fig, path: str | Path) -> None:
-    """Lay out ``fig``, write it to ``path`` (PNG, 110 dpi) and close it."""
+    """Lay out ``fig``, write it to ``path`` (PNG, 110 dpi) and close it. The file is
+    written as ``<path>.partial`` and renamed when complete
+    (:func:`hgo.recording.atomic_output`)."""
+    from hgo.recording import atomic_output
+
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    try:
+        with atomic_output(path) as partial:
+            fig.savefig(partial, dpi=110, format=Path(path).suffix.lstrip(".") or "png")
+    finally:
+        plt.close(fig)
