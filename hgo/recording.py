@@ -449,3 +449,18 @@ def read_dataframe(path: str | Path) -> pd.DataFrame:
         for j, label in enumerate(labels[: values.shape[1]]):
             columns[f"{entity}/{label}"] = values[:, j]
     return pd.DataFrame(columns, index=pd.Index(data[TIMELINE], name=TIMELINE))
+
+
+def read_texts(path: str | Path) -> dict[str, str]:
+    """The static text documents of a recording (e.g. ``/run/status``), entity -> text."""
+    from rerun.chunk import RrdReader
+
+    table = RrdReader(Path(path)).stream().collect().reader(index=None).to_arrow_table()
+    suffix = ":TextDocument:text"
+    out = {}
+    for name in table.column_names:
+        if name.endswith(suffix):
+            values = [v for v in table.column(name).to_pylist() if v]
+            if values:
+                out[name[: -len(suffix)]] = str(values[0][0])
+    return out

@@ -1,7 +1,8 @@
 """From a composed Hydra config to a run directory: recording, metrics, config.
 
-    build(cfg)  -> Experiment (system, solver settings, noise model): every parameter is
-                   checked here, before any integration.
+    build(cfg)  -> Experiment (system, solver settings, noise model, post-processors):
+                   every parameter is checked here, before any integration
+                   (:mod:`hgo.validate`, the builders, :class:`System`).
     run(cfg, out_dir) -> RunResult: simulate, write ``recording.rrd`` and ``metrics.csv``;
                    a run that stops early (non-finite state, state bound) keeps everything
                    up to its stop time and is marked failed in ``metrics.csv``.
@@ -50,7 +51,7 @@ class SimulationFailed(RuntimeError):
 
 
 class RunInterrupted(KeyboardInterrupt):
-    """Ctrl-C (SIGINT) or SIGTERM stopped a run; its outputs up to then are written."""
+    """Ctrl-C (SIGINT) stopped a run; its outputs up to then are written."""
 
 
 @dataclass
@@ -172,17 +173,17 @@ def solver_settings(cfg: DictConfig) -> SolverSettings:
     return settings
 
 
-def check_cost(system: System, solver: SolverSettings, noise: NoiseModel,
-               record: bool = True) -> None:
+def check_cost(system: System, solver: SolverSettings, noise: NoiseModel) -> None:
     """Refuse a run whose output rows, noise samples or steps, estimated now, are too many
     (:func:`hgo.validate.check_cost`)."""
-    n_rows = int(round(solver.t_end / solver.dt_out)) + 1 if record else 0
+    n_rows = int(round(solver.t_end / solver.dt_out)) + 1
     ny, nu = len(system.plant.output_names), len(system.plant.input_names)
     n_cols = system.nz + system.nd + 2 * ny + nu + system.nxh
     period = noise.period if noise.kind != "none" else math.inf
     n_noise = int(math.ceil(solver.t_end / period)) + 1 if math.isfinite(period) else 1
-    _check_sizes(n_rows, n_cols, n_noise * ny, solver.min_steps(system.spectral_radius(), period),
-               solver.max_output_rows, solver.max_steps)
+    steps = solver.min_steps(system.spectral_radius(), period)
+    _check_sizes(n_rows, n_cols, n_noise * ny, steps, solver.max_output_rows,
+                 solver.max_steps)
 
 
 def build_postprocessors(cfg: DictConfig, system: System, solver: SolverSettings) -> dict:

@@ -35,23 +35,21 @@ def _kernel_run(tmp_path: Path, cache: Path) -> subprocess.CompletedProcess:
 
 
 def test_damaged_kernel_cache_is_rebuilt_with_one_warning(tmp_path):
-    """A truncated kernel module and truncated numba cache files (index and data) give one
-    warning each run and the same result; the run after the repair is silent."""
+    """A truncated kernel module (text no longer matching its hash) and truncated numba
+    cache files (index and data, of the kernel and of a helper it calls): one warning
+    each, the same result; the next run is silent."""
     cache = tmp_path / "kernels"
-    ref = _kernel_run(tmp_path, cache)
-    value = float(ref.stdout.split()[-1])
+    value = float(_kernel_run(tmp_path, cache).stdout.split()[-1])
     (entry,) = cache.glob("hgo_kernel_*.py")
-    entry.write_text(entry.read_text()[:200])  # truncated kernel text
-    out = _kernel_run(tmp_path, cache)
-    assert float(out.stdout.split()[-1]) == value
-    assert out.stderr.count("RuntimeWarning") == 1 and "corrupted" in out.stderr
+    entry.write_text(entry.read_text()[:200])
     damaged = list((tmp_path / "nb").rglob("*.nb[ic]"))
-    assert damaged
-    for path in damaged:  # every numba cache file truncated
+    assert any("triangular" in p.name for p in damaged)  # a helper's cache, too
+    for path in damaged:
         path.write_bytes(path.read_bytes()[:10])
     out = _kernel_run(tmp_path, cache)
     assert float(out.stdout.split()[-1]) == value
-    assert out.stderr.count("RuntimeWarning") == 1 and "damaged" in out.stderr, out.stderr
+    assert out.stderr.count("RuntimeWarning") == 2, out.stderr
+    assert "is corrupted" in out.stderr and "is damaged" in out.stderr
     out = _kernel_run(tmp_path, cache)
     assert float(out.stdout.split()[-1]) == value and "Warning" not in out.stderr
 
@@ -82,7 +80,8 @@ def _system_and_noise():
 
 
 def test_nan_parameter_ends_the_adaptive_run_as_failed():
-    """A NaN parameter made dopri5 reject steps forever (h = NaN); now: status 4, t = 0."""
+    """A NaN parameter made dopri5 reject steps forever (h = NaN); now: status 4, t = 0
+    (dop853 shares the loop)."""
     import numpy as np
 
     from hgo.engine.simulate import STATUS, SolverSettings, simulate
@@ -90,11 +89,10 @@ def test_nan_parameter_ends_the_adaptive_run_as_failed():
     system, noise = _system_and_noise()
     params = system.params()
     params[0] = np.nan  # nu1 of the plant
-    for method in ("dopri5", "dop853"):
-        tr = simulate(system, SolverSettings(t_end=1.0, dt_out=0.5, method=method), noise,
-                      params=params)
-        assert tr.status == 4 and "non-finite step size" in STATUS[tr.status]
-        assert tr.t_stop == 0.0
+    tr = simulate(system, SolverSettings(t_end=1.0, dt_out=0.5, method="dopri5"), noise,
+                  params=params)
+    assert tr.status == 4 and "non-finite step size" in STATUS[tr.status]
+    assert tr.t_stop == 0.0
 
 
 def test_step_limit_ends_the_run_as_failed():
@@ -125,7 +123,7 @@ def test_ctrl_c_stops_a_long_compiled_integration_within_a_second(tmp_path):
 
     import pandas as pd
 
-    from hgo.recording import read_recording
+    from hgo.recording import read_recording, read_texts
 
     warm = _run_cli([*SHORT, f"hydra.run.dir={tmp_path}/warm"], tmp_path)  # compile
     assert warm.wait(timeout=300) == 0, warm.stderr.read()
@@ -151,6 +149,7 @@ def test_ctrl_c_stops_a_long_compiled_integration_within_a_second(tmp_path):
     assert 0 < t_stop < 100000
     rec = read_recording(run_dir / "recording.rrd")
     assert rec["sim_time"][-1] <= t_stop and len(rec["sim_time"]) > 1
+    assert read_texts(run_dir / "recording.rrd")["/run/status"].startswith("interrupted at t")
     assert not list(run_dir.glob("*.partial"))
 
 

@@ -26,7 +26,8 @@ saturations) runs after every step, so switching instants are step boundaries to
   step's discrete update (and after the noise sample change when they coincide with one).
 
 Status codes: 0 ok, 1 non-finite state, 2 state beyond ``bound``, 3 step-size underflow,
-4 non-finite step size (a NaN/inf in the right-hand side or its parameters), 5 step limit
+4 non-finite step size or error norm (a NaN/inf in the right-hand side or its
+parameters: the step shrinks to underflow on NaN error norms), 5 step limit
 ``ctl[1]`` reached, 6 interrupted (``ctl[0]`` set by another thread: Ctrl-C). ``ctl`` is
 checked after every step (a load): the run stops within one step of a request, without
 any change to the integration itself.
@@ -88,13 +89,13 @@ def _start(z, d, m, P, w, y, u, xh, sq, prev, acc, win, noise, bound, t_end, dt_
         acc[j] = 0.0
     system_update(0.0, z, d, m, P, w)
     status = _state_status(z, bound)
-    _emit(np.int64(0), 0.0, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0, tol,
+    _emit(np.int64(0), 0.0, z, d, m, P, w, y, u, xh, sq, prev, acc, win, t_win0, tol,
           Z, D, Y, M, U, XH)
     return status, n_out, tol, t_win0
 
 
 @ijit
-def _emit(k, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0, tol,
+def _emit(k, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, t_win0, tol,
           Z, D, Y, M, U, XH):
     """Output sample k at time t: record it, and add it to the trailing-window metrics."""
     system_outputs(t, z, d, m, P, w, y, u, xh)
@@ -259,7 +260,7 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
                     m[i] = noise[idx, i]
             if t_noise >= t_out:
                 break
-        _emit(k_out, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0, tol,
+        _emit(k_out, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, t_win0, tol,
               Z, D, Y, M, U, XH)
     return 0, n_out, t
 
@@ -332,6 +333,7 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
     h = _initial_step(t, z, d, m, P, w, k1, zo, zt, rtol, atol, h_max)
     fsal = True  # k1 holds f(t, z) for the current noise sample and discrete state
     retried = False  # the step being tried follows a rejection
+    nonfinite = False  # the last trial's error norm was NaN/inf
     while k_out < n_out:
         t_seg = (k_noise + 1) * noise_dt
         if t_seg >= t_end - tol:
@@ -345,15 +347,16 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
             if last:
                 hh = t_seg - t
             if not hh >= 1e-14 * max(1.0, abs(t)):  # (NaN fails every comparison)
-                return 3 if math.isfinite(hh) else 4, k_out, t
+                return 4 if nonfinite or not math.isfinite(hh) else 3, k_out, t
             n_steps += 1
             if n_steps > max_steps:
                 return 5, k_out, t
             if ctl[0] != 0:
                 return 6, k_out, t
             err = _trial(t, hh, z, d, m, P, w, K, zt, rtol, atol)
+            nonfinite = not math.isfinite(err)  # the underflow it leads to has this cause
             if not err <= 1.0:  # rejected (or non-finite)
-                h = hh * (0.2 if not math.isfinite(err) else max(0.2, 0.9 * err ** ERR_EXP))
+                h = hh * (0.2 if nonfinite else max(0.2, 0.9 * err ** ERR_EXP))
                 retried = True
                 continue
             t_new = t_seg if last else t + hh
@@ -365,7 +368,7 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
                         _dense_prep(t, hh, z, zt, d, m, P, w, K, F, zo)
                         prepared = True
                     _dense_eval((t_o - t) / hh, z, F, zo)
-                    _emit(k_out, t_o, zo, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out,
+                    _emit(k_out, t_o, zo, d, m, P, w, y, u, xh, sq, prev, acc, win,
                           t_win0, tol, Z, D, Y, M, U, XH)
                 k_out += 1
             for i in range(nz):
@@ -395,7 +398,7 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
             if last:
                 break
             while k_out < n_out and k_out * dt_out <= t + tol:  # an output on the step end
-                _emit(k_out, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0,
+                _emit(k_out, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, t_win0,
                       tol, Z, D, Y, M, U, XH)
                 k_out += 1
         if t_seg < t_end:  # the next noise sample holds from here on
@@ -405,7 +408,7 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
                 m[i] = noise[idx, i]
             fsal = False
         while k_out < n_out and k_out * dt_out <= t + tol:
-            _emit(k_out, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, dt_out, t_win0,
+            _emit(k_out, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, t_win0,
                   tol, Z, D, Y, M, U, XH)
             k_out += 1
     return 0, n_out, t

@@ -40,7 +40,8 @@ METHODS = {"rk4": 0, "dopri5": 1, "dop853": 2}
 CACHE_ERRORS = (pickle.UnpicklingError, EOFError)  # numba reading a damaged cache file
 MAX_CACHE_REPAIRS = 64  # damaged cache files deleted (one per retry) before giving up
 STATUS = {0: "ok", 1: "non-finite state", 2: "state left the bound", 3: "step size underflow",
-          4: "non-finite step size (NaN/inf in the right-hand side or a parameter)",
+          4: "non-finite step size or error norm (NaN/inf in the right-hand side or a "
+             "parameter)",
           5: "step limit solver.max_steps reached", 6: "interrupted"}
 INTERRUPTED = 6
 WAIT_S = 0.05  # the main thread wakes this often while a compiled integration runs

@@ -83,7 +83,13 @@ def legend_outside(ax, below: bool = False) -> None:
 
 def save_figure(fig, path: str | Path) -> None:
     """Lay out ``fig``, write it to ``path`` (format from its suffix, dpi from
-    ``savefig.dpi``) and close it."""
+    ``savefig.dpi``) and close it. The file is written as ``<path>.partial`` and renamed
+    when complete (:func:`hgo.recording.atomic_output`)."""
+    from hgo.recording import atomic_output
+
     fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
+    try:
+        with atomic_output(path) as partial:
+            fig.savefig(partial, format=Path(path).suffix.lstrip(".") or "png")
+    finally:
+        plt.close(fig)
