@@ -216,3 +216,24 @@ def moreno_certificate(lambda_P: str = "half_min_eig", delta: float = 0.1,
     return MorenoCertificate(lambda_P, float(delta), regularisation, float(eps_fraction),
                              None if K1t is None else float(K1t), float(window),
                              float(norm_floor))
+
+
+def best_K1t(es: ErrorSystem, K1a: float, t: np.ndarray, sigma: np.ndarray,
+             psi: np.ndarray, window: float, span: float = 8.0, n: int = 60
+             ) -> tuple[float, float, float]:
+    """Our extension, not the paper's (notes 7.2 ``K1t: best``): K~1 on a grid of ``n``
+    points in (K1^a, K1^a + span] maximising eps_max(K~1) - alpha1(K~1) on this run, with
+    the sharp c = -2 H_N G (P-independent for r = 1) and eps_max by the exact SPR test.
+    Returns (K~1, eps_max, alpha1) at the best grid point."""
+    from hgo.papers.moreno.theory import eps_max_fd
+
+    c = float(-2 * es.H_N @ es.G)
+    lower = sector_lower(psi, sigma)
+    best = (-math.inf, math.nan, math.nan, math.nan)
+    for K1t in K1a + span * np.arange(1, n + 1) / n:
+        eps = eps_max_fd(es, K1t)
+        I = cumulative_trapezoid(c * np.maximum(0.0, K1t - lower), t, initial=0.0)
+        alpha1, _ = windowed_alpha(t, I, window)
+        if eps - alpha1 > best[0]:
+            best = (eps - alpha1, float(K1t), eps, alpha1)
+    return best[1], best[2], best[3]

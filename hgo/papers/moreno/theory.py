@@ -311,7 +311,9 @@ def k1a_over_gains(A, G, C, H, rho_lo: float = -50.0, eps0: float = 1e-4, mu: fl
     def feasible(rho: float) -> bool:
         w.value = 1.0 / (2.0 * abs(rho))
         try:
-            prob.solve(solver=SOLVER)
+            with warnings.catch_warnings():  # an inaccurate solve counts as infeasible
+                warnings.simplefilter("ignore", UserWarning)
+                prob.solve(solver=SOLVER)
         except cp.error.SolverError:
             return False
         return prob.status == cp.OPTIMAL
