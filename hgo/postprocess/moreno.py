@@ -75,29 +75,30 @@ class Certificate:
     mean_varrho: float
 
 
-def windowed_alpha(t: np.ndarray, I: np.ndarray, window: float) -> tuple[float, float]:
-    """Remark 6.3: alpha1 = max over t >= T of (I(t + Delta) - I(t)) / Delta, T = t_f/2 -
-    Delta, and gamma = max_t [J(t) - min_{s <= t} J(s)], J = I - alpha1 t (the least gamma
-    with int_{t0}^{t} varrho <= alpha1 (t - t0) + gamma on the run)."""
+def windowed_alpha(t: np.ndarray, cum: np.ndarray, window: float) -> tuple[float, float]:
+    """Remark 6.3 from cum = I(t) = int_0^t varrho: alpha1 = max over t >= T of
+    (I(t + Delta) - I(t)) / Delta, T = t_f/2 - Delta, and gamma = max_t [J(t) - min_{s <= t}
+    J(s)], J = I - alpha1 t (the least gamma with int_{t0}^{t} varrho <= alpha1 (t - t0) +
+    gamma on the run)."""
     t_f = t[-1]
     if window >= t_f:
         raise ValueError(f"postprocess.moreno.window ({window}) must be < t_end ({t_f})")
     starts = t[(t >= t_f / 2 - window) & (t <= t_f - window)]
-    means = (np.interp(starts + window, t, I) - np.interp(starts, t, I)) / window
+    means = (np.interp(starts + window, t, cum) - np.interp(starts, t, cum)) / window
     alpha1 = float(np.max(means))
-    J = I - alpha1 * t
+    J = cum - alpha1 * t
     gamma = float(np.max(J - np.minimum.accumulate(J)))
     return alpha1, gamma
 
 
 def certificate(t: np.ndarray, varrho: np.ndarray, eps: float, window: float,
                 kappa: float, e0: float) -> tuple[Certificate, np.ndarray, np.ndarray]:
-    """(Certificate, I(t), eta(t, 0)) for varrho sampled on t."""
-    I = cumulative_trapezoid(varrho, t, initial=0.0)
-    eta = eps * t - I
+    """(Certificate, I(t) = int_0^t varrho, eta(t, 0)) for varrho sampled on t."""
+    cum = cumulative_trapezoid(varrho, t, initial=0.0)
+    eta = eps * t - cum
     half = np.searchsorted(t, t[-1] / 2)
     tail = (eta[-1] - eta[half]) / (t[-1] - t[half])
-    alpha1, gamma = windowed_alpha(t, I, window)
+    alpha1, gamma = windowed_alpha(t, cum, window)
     holds14 = alpha1 < eps
     # ||e|| <= kappa e^{gamma/2} e^{-(eps - alpha1) t / 2} ||e0|| reaches 1e-3 at
     t_bound = (2 * (math.log(kappa * e0 / 1e-3) + gamma / 2) / (eps - alpha1)
@@ -105,9 +106,9 @@ def certificate(t: np.ndarray, varrho: np.ndarray, eps: float, window: float,
     q = np.searchsorted(t, 0.75 * t[-1])
     cert = Certificate(float(eta[-1]), float(tail), alpha1, bool(holds14), gamma,
                        max(t_bound, 0.0) if math.isfinite(t_bound) else math.nan,
-                       float(I[-1]), bool(I[-1] - I[q] <= 1e-9 * max(1.0, I[-1])),
+                       float(cum[-1]), bool(cum[-1] - cum[q] <= 1e-9 * max(1.0, cum[-1])),
                        float(np.max(varrho[q:])), float(np.mean(varrho)))
-    return cert, I, eta
+    return cert, cum, eta
 
 
 @dataclass
@@ -164,7 +165,7 @@ class MorenoCertificate:
         theta = sector_lower(pl.psi_coeffs, sigma) - des.K1t
         varrho = c * np.maximum(0.0, -theta)
         norm = np.linalg.norm(e, axis=1)
-        cert, I, eta = certificate(t, varrho, des.eps, self.window, des.kappa, norm[0])
+        cert, _, eta = certificate(t, varrho, des.eps, self.window, des.kappa, norm[0])
         V = 0.5 * np.einsum("ij,jk,ik->i", e, des.P, e)
         V_bound = np.exp(-eta) * V[0]
         edot = es.rhs(e.T, phi).T
@@ -232,8 +233,8 @@ def best_K1t(es: ErrorSystem, K1a: float, t: np.ndarray, sigma: np.ndarray,
     best = (-math.inf, math.nan, math.nan, math.nan)
     for K1t in K1a + span * np.arange(1, n + 1) / n:
         eps = eps_max_fd(es, K1t)
-        I = cumulative_trapezoid(c * np.maximum(0.0, K1t - lower), t, initial=0.0)
-        alpha1, _ = windowed_alpha(t, I, window)
+        cum = cumulative_trapezoid(c * np.maximum(0.0, K1t - lower), t, initial=0.0)
+        alpha1, _ = windowed_alpha(t, cum, window)
         if eps - alpha1 > best[0]:
             best = (eps - alpha1, float(K1t), eps, alpha1)
     return best[1], best[2], best[3]

@@ -367,7 +367,8 @@ def c14_pe() -> Measured:
         es = th.ErrorSystem(*obs.error_matrices())
         tr = mem.trajectory
         K1t, eps, alpha1 = best_K1t(es, _q(ov, "K1a_sdp"), tr.t, tr.z[:, 1], PSI, 5.0)
-        nums[f"{inp}: best K~1, alpha1 / eps_max (sharp c)"] = f"{K1t:.4g}, {alpha1:.4g} / {eps:.4g}"
+        nums[f"{inp}: best K~1, alpha1 / eps_max (sharp c)"] = (
+            f"{K1t:.4g}, {alpha1:.4g} / {eps:.4g}")
         certified[inp] = alpha1 < eps or _q(ov, "holds14") == 1
     ok = converged["moreno_sin"] and converged["moreno_sin5"] and not any(certified.values())
     return Measured(bool(ok), nums, "narrower: the observer converges on the exciting inputs "
@@ -387,8 +388,8 @@ def c15_remark6() -> Measured:
     varrho = cert.values[:, 1]
     from scipy.integrate import cumulative_trapezoid
 
-    I = cumulative_trapezoid(varrho, t, initial=0.0)
-    worst = float(np.max(I[None, :] - I[:, None]))  # max over t0 <= t of int_t0^t varrho
+    cum = cumulative_trapezoid(varrho, t, initial=0.0)
+    worst = float(np.max(cum[None, :] - cum[:, None]))  # max over t0 <= t of int_t0^t varrho
     flat = _q(FIG1, "int_varrho_flat_last_quarter") == 1
     return Measured(bool(flat and worst <= k + 1e-12),
                     {"int_0^tf varrho (= gamma)": k, "flat over the last quarter": float(flat),
