@@ -44,7 +44,7 @@ def joint_rhs(obs: CircleCriterionObserver, ctrl: Controller, a: float,
 
 def reference_run(obs: CircleCriterionObserver, ctrl: Controller, a: float, t_end: float,
                   dt_out: float, method: str = "Radau", rtol: float = 1e-10,
-                  atol: float = 1e-12, with_error: bool = True
+                  atol: float = 1e-12, with_error: bool = True, max_step: float = np.inf
                   ) -> tuple[np.ndarray, np.ndarray, int]:
     """(t, w on the grid k dt_out, number of right-hand-side evaluations)."""
     rhs = joint_rhs(obs, ctrl, a, with_error)
@@ -58,7 +58,8 @@ def reference_run(obs: CircleCriterionObserver, ctrl: Controller, a: float, t_en
     for t0, t1 in zip(edges[:-1], edges[1:], strict=True):
         sel = (t_grid >= t0) & (t_grid < t1)
         t_eval = np.append(t_grid[sel], t1)
-        sol = solve_ivp(rhs, (t0, t1), w, method=method, rtol=rtol, atol=atol, t_eval=t_eval)
+        sol = solve_ivp(rhs, (t0, t1), w, method=method, rtol=rtol, atol=atol, t_eval=t_eval,
+                        max_step=max_step)
         if sol.status != 0:
             raise RuntimeError(f"solve_ivp ({method}) failed at t = {sol.t[-1]}: {sol.message}")
         out[sel] = sol.y[:, :-1].T
