@@ -36,7 +36,8 @@ def test_fig1_run_matches_radau_through_the_stiff_start(radau):
 
 
 def test_refining_the_tolerance_converges(radau):
-    """rtol 1e-12 is >= 30x closer to Radau than rtol 1e-10 would need to be (<= 3e-10)."""
+    """Refining rtol from 1e-10 to 1e-12 brings the run within 3e-10 of Radau (the
+    preset's bound is 1e-8): the engine's error follows its tolerance."""
     _, w, _ = radau
     tr = simulate_config(compose([*FIG1, "solver.rtol=1e-12", "solver.atol=1e-14",
                                   "postprocess=none"])).trajectory

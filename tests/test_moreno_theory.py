@@ -96,6 +96,8 @@ def test_remark63_alpha_and_gamma():
     (lambda: profile_input("pulse", tau=0), "controller.tau must be > 0"),
     (lambda: moreno_certificate(lambda_P="max"), "postprocess.moreno.lambda_P: 'max' not in"),
     (lambda: moreno_certificate(eps_fraction=1.0), "postprocess.moreno.eps_fraction must be"),
+    (lambda: moreno_certificate(K1t=float("inf")), "postprocess.moreno.K1t must be finite"),
+    (lambda: moreno_certificate(K1t=0.0, K1t_search=True), "give K1t or K1t_search"),
 ])
 def test_builders_reject_bad_values(call, message):
     with pytest.raises(ValueError, match=message.replace("(", r"\(").replace("[", r"\[")):

@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.integrate import cumulative_trapezoid
 
+from hgo.controllers.profile_input import input_period
 from hgo.engine.simulate import Trajectory
 from hgo.engine.system import System
 from hgo.observers.circle_criterion import CircleCriterionObserver
@@ -39,6 +40,7 @@ from hgo.postprocess import PostOutput
 from hgo.recording import Series
 
 NORM_TIMES = (1.0, 5.0, 10.0, 20.0, 40.0)
+DEFAULT_WINDOW = 5.0  # Delta of Remark 6.3 for a non-periodic input (s)
 LAMBDA_P = ("half_min_eig", "min_eig", "sharp")
 
 
@@ -115,17 +117,21 @@ def certificate(t: np.ndarray, varrho: np.ndarray, eps: float, window: float,
 class MorenoCertificate:
     """Post-processor; see the module docstring. Open choices (implementation notes):
     ``lambda_P`` (A3), ``delta`` and ``regularisation`` (A5), ``eps_fraction`` and the P
-    of Theorem 3 (A13), ``K1t`` (null: from ``delta``; a number imposes K~1), ``window``
-    (Delta of Remark 6.3, s), ``norm_floor`` (||e|| below it is excluded from the V'/V
-    check: V'/V is then dominated by rounding)."""
+    of Theorem 3 (A13), ``K1t`` (null: from ``delta``; a number imposes K~1),
+    ``K1t_search`` (our extension, not the paper's: K~1 from :func:`best_K1t` on this run),
+    ``window`` (Delta of Remark 6.3, s; null: the input's period for a periodic input,
+    else 5 s), ``mu`` (P >= mu I in the LMIs), ``norm_floor``
+    (||e|| below it is excluded from the V'/V check: V'/V is then dominated by rounding)."""
 
     lambda_P: str = "half_min_eig"
     delta: float = 0.1
     regularisation: str = "margin"
     eps_fraction: float = 0.99
     K1t: float | None = None
-    window: float = 5.0
+    window: float | None = None
     norm_floor: float = 1e-6
+    K1t_search: bool = False
+    mu: float = 1e-7
 
     def __post_init__(self) -> None:
         if self.lambda_P not in LAMBDA_P:
@@ -136,36 +142,50 @@ class MorenoCertificate:
         if not 0 < self.eps_fraction < 1:
             raise ValueError("postprocess.moreno.eps_fraction must be in (0, 1), got "
                              f"{self.eps_fraction}")
-        if not self.window > 0:
-            raise ValueError(f"postprocess.moreno.window must be > 0 (s), got {self.window}")
+        if self.window is not None and not self.window > 0:
+            raise ValueError(f"postprocess.moreno.window must be > 0 (s) or null, "
+                             f"got {self.window}")
+        if self.K1t is not None and not math.isfinite(self.K1t):
+            raise ValueError(f"postprocess.moreno.K1t must be finite or null, got {self.K1t}")
+        if self.K1t is not None and self.K1t_search:
+            raise ValueError("postprocess.moreno: give K1t or K1t_search, not both")
+        if not self.mu > 0:
+            raise ValueError(f"postprocess.moreno.mu must be > 0, got {self.mu}")
 
-    def design(self, obs: CircleCriterionObserver) -> tuple[ErrorSystem, CertificateDesign]:
+    def design(self, obs: CircleCriterionObserver, K1t: float | None = None
+               ) -> tuple[ErrorSystem, CertificateDesign]:
+        """Error system (5) and Theorem 3 data; ``K1t`` overrides the configured K~1."""
         es = ErrorSystem(*obs.error_matrices())
         return es, certificate_design(es, obs.plant.K1, self.delta, self.eps_fraction,
-                                      self.K1t, self.regularisation)
+                                      self.K1t if K1t is None else K1t, self.regularisation,
+                                      self.mu)
 
     def apply(self, system: System, traj: Trajectory) -> PostOutput:
         out = PostOutput()
+        window = self.window or input_period(system.controller) or DEFAULT_WINDOW
         for obs, (xa, xb) in zip(system.observers, system.xh_slices, strict=True):
             if isinstance(obs, CircleCriterionObserver):
-                self._one(obs, traj, traj.xh[:, xa:xb], out)
+                self._one(obs, traj, traj.xh[:, xa:xb], window, out)
         return out
 
     def _one(self, obs: CircleCriterionObserver, traj: Trajectory, xh: np.ndarray,
-             out: PostOutput) -> None:
+             window: float, out: PostOutput) -> None:
         pl, t = obs.plant, traj.t
         x = traj.z[:, :pl.nx]
+        sigma = x @ pl.H
         es, des = self.design(obs)
+        if self.K1t_search:
+            K1t, _, _ = best_K1t(es, des.K1a, t, sigma, pl.psi_coeffs, window)
+            es, des = self.design(obs, K1t)
         c = des.c(self.lambda_P, es)
         e = x - xh
-        sigma = x @ pl.H
         z = e @ es.H_N
         phi = pl.phi(z, sigma)
         psi_hat = pl.psi(xh @ pl.H + obs.N * (traj.y[:, 0] - xh @ pl.C))
         theta = sector_lower(pl.psi_coeffs, sigma) - des.K1t
         varrho = c * np.maximum(0.0, -theta)
         norm = np.linalg.norm(e, axis=1)
-        cert, _, eta = certificate(t, varrho, des.eps, self.window, des.kappa, norm[0])
+        cert, _, eta = certificate(t, varrho, des.eps, window, des.kappa, norm[0])
         V = 0.5 * np.einsum("ij,jk,ik->i", e, des.P, e)
         V_bound = np.exp(-eta) * V[0]
         edot = es.rhs(e.T, phi).T
@@ -190,7 +210,8 @@ class MorenoCertificate:
             "t_bound14_1e-3": cert.t_bound_1e3, "int_varrho": cert.int_varrho,
             "int_varrho_flat_last_quarter": float(cert.flat_last_quarter),
             "max_varrho_last_quarter": cert.max_varrho_last_quarter,
-            "margin_i": margin_i, "c_need": c_need, "max_ratio_ii": ratio_ii,
+            "window_14": window, "margin_i": margin_i, "c_need": c_need,
+            "max_ratio_ii": ratio_ii,
             "t_norm_below_1e-3": first_time_below(t, norm, 1e-3),
         }
         for when in NORM_TIMES:
@@ -211,12 +232,14 @@ class MorenoCertificate:
 
 def moreno_certificate(lambda_P: str = "half_min_eig", delta: float = 0.1,
                        regularisation: str = "margin", eps_fraction: float = 0.99,
-                       K1t: float | None = None, window: float = 5.0,
-                       norm_floor: float = 1e-6) -> MorenoCertificate:
+                       K1t: float | None = None, window: float | None = None,
+                       norm_floor: float = 1e-6, K1t_search: bool = False,
+                       mu: float = 1e-7) -> MorenoCertificate:
     """Factory of the ``postprocess`` group option ``moreno_certificate``."""
     return MorenoCertificate(lambda_P, float(delta), regularisation, float(eps_fraction),
-                             None if K1t is None else float(K1t), float(window),
-                             float(norm_floor))
+                             None if K1t is None else float(K1t),
+                             None if window is None else float(window),
+                             float(norm_floor), bool(K1t_search), float(mu))
 
 
 def best_K1t(es: ErrorSystem, K1a: float, t: np.ndarray, sigma: np.ndarray,

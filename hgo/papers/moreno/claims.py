@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy.optimize import brentq
 
 from hgo.claims import (
     PARTLY,
@@ -20,11 +21,12 @@ from hgo.claims import (
     run_in_memory,
     run_rows,
 )
+from hgo.controllers.profile_input import profile
 from hgo.papers.moreno import theory as th
 from hgo.papers.moreno.sector import global_sector_lower, numerical_sector_lower, sector_lower
 from hgo.papers.moreno.sector_table import example_error_system
 from hgo.plants.circle_form import example_rhs, moreno_example_plant
-from hgo.postprocess.moreno import MorenoCertificate, best_K1t, first_time_below
+from hgo.postprocess.moreno import MorenoCertificate, first_time_below
 
 P = "moreno"
 FIG1 = ("experiment=moreno_fig1",)
@@ -40,7 +42,8 @@ R_A2 = "A2: psi = s^3 - 2 s (A12 = 1)"
 R_A3 = "A3: c = 2 lam_H / lam_m (lambda_P = lam_m / 2)"
 R_A5 = "A5 R2: K~1 = max(K1, K1^a + delta/2), delta = 0.1"
 R_A13 = "A13: eps = 0.99 eps_max(K~1), P = argmax lambda_min(P)"
-R_IN = "A10: Fig. 1 input = pulse (x2 = 0 for 5 s, ramp to 2 over 0.5 s)"
+R_IN = ("A10: Fig. 1 input = pulse (x2 = 0 for 5 s, smooth ramp to 2 over 0.5 s, "
+        "held)")
 
 
 def _pe(*extra: str) -> tuple[str, ...]:
@@ -49,6 +52,13 @@ def _pe(*extra: str) -> tuple[str, ...]:
 
 def _q(overrides: tuple[str, ...], quantity: str, observer: str = "circle") -> float:
     return float(run_rows(overrides)[(observer, quantity)])
+
+
+def _crossing(overrides: tuple[str, ...], level: float) -> float:
+    """First t at which the run's x2-profile r(t) reaches ``level`` (root of r - level)."""
+    c = run_in_memory(overrides).experiment.system.controller
+    t_on, tau = c.p[2], c.p[3]
+    return float(brentq(lambda t: profile(t, c.p)[0] - level, t_on, t_on + tau))
 
 
 def _errors(overrides: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -271,6 +281,8 @@ def c10_theorem2() -> Measured:
     lin = np.roots([1, 1 + l1 + 1.0 + k * d, (1 + l1 + k * d) * 1.0 + l2 * (1 + d)])
     nums["A7: eps_max(-2) (2,200,120,1)"] = th.eps_max_fd(es, -2.0)
     nums["A7: slowest linearised rate at sigma = 0"] = float(-lin.real.max())
+    nums["A7: eps_max(-2) / slowest rate"] = nums["A7: eps_max(-2) (2,200,120,1)"] / float(
+        -lin.real.max())
     ok = all(v <= 1 + 1e-9 for q, v in nums.items() if q.startswith("max")) and all(
         v == 1 for q, v in nums.items() if q.startswith("strong"))
     return Measured(ok, nums, "both bounds hold on the strong runs (varrho = 0 there)")
@@ -307,15 +319,19 @@ def c12_band() -> Measured:
     t, x, e = _errors(FIG1)
     sel = (t >= 2) & (t < 5)
     e2 = e[sel, 1]
-    t_exit = 5 + BAND / 4
+    t_exit = _crossing(FIG1, BAND)
     e2_exit = float(np.interp(t_exit, t, e[:, 1]))
+    t_saddle = _crossing(FIG1, 1 / math.sqrt(3))  # e = 0 stops being a saddle (A11)
+    e2_saddle = float(np.interp(t_saddle, t, e[:, 1]))
     xhat2 = x[sel, 1] - e2
     ok = e2.max() < -0.99 and abs(e2_exit) > 0.5
     return Measured(bool(ok), {"min e2 on [2, 5)": float(e2.min()), "max e2 on [2, 5)":
                                float(e2.max()), "e(5) (e1, e2)": f"{e[t == 5][0]}",
                                "x^2 on [2, 5) (twin of sigma = 0 is 1)": float(xhat2.mean()),
-                               "e2 at the band exit t = 5.2887 s": e2_exit},
-                    "e2 stays at -1 (x^2 at the twin 1 of x2 = 0) while sigma is in the band")
+                               "t when x2 = 1/sqrt(3)": t_saddle, "e2 then": e2_saddle,
+                               "t band exit": t_exit, "e2 at the band exit": e2_exit},
+                    "e2 stays at -1 (x^2 at the twin 1 of x2 = 0) while sigma = 0 and has not "
+                    "converged at the exit; it starts moving once |sigma| > 1/sqrt(3) (A11)")
 
 
 def _linear_rates(sigma: float, a: float = 0.0) -> np.ndarray:
@@ -338,7 +354,7 @@ def c13_fast() -> Measured:
     t_below = first_time_below(t, norm, 1e-3)
     ok = abs(rate / slow - 1) < 0.05 and t_below - t[exit_idx] < 2.0
     return Measured(bool(ok), {"t exit (grid)": float(t[exit_idx]),
-                               "t exit (analytic)": 5 + BAND / 4,
+                               "t exit (profile root)": _crossing(FIG1, BAND),
                                "decay rate of ||e|| for t > 5.5 s": float(rate),
                                "slowest linearised rate at sigma = 2": float(slow),
                                "t ||e|| < 1e-3 for good": t_below,
@@ -350,10 +366,11 @@ def c13_fast() -> Measured:
                  "converges if (14) holds",
        runs=tuple(" ".join(_pe(f"controller={c}")) for c in
                   ("moreno_sin", "moreno_sin5", "moreno_sin1")),
-       readings=(R_A3, R_A5, R_A13, "(14) via Remark 6.3 with Delta = 5 s over t >= t_f/2 - "
-                 "Delta; 'best' K~1 is our extension"), verdict=PARTLY)
+       readings=(R_A3, R_A5, R_A13, "(14) via Remark 6.3, Delta = input period 2 pi, over "
+                 "t >= t_f/2 - Delta", "extension (ours): K~1 searched on the run, sharp c"),
+       verdict=PARTLY)
 def c14_pe() -> Measured:
-    nums, converged, certified = {}, {}, {}
+    nums, converged, paper, ours = {}, {}, {}, {}
     for inp in ("moreno_sin", "moreno_sin5", "moreno_sin1"):
         ov = _pe(f"controller={inp}")
         tb = _q(ov, "t_norm_below_1e-3")
@@ -361,19 +378,21 @@ def c14_pe() -> Measured:
         nums[f"{inp}: ||e|| at 1, 5, 10, 20, 40 s"] = ", ".join(
             f"{_q(ov, f'norm_e_t{w}'):.3g}" for w in (1, 5, 10, 20, 40))
         nums[f"{inp}: t ||e|| < 1e-3"] = tb
-        nums[f"{inp}: alpha1 / eps (default)"] = f"{_q(ov, 'alpha1'):.4g} / {_q(ov, 'eps'):.4g}"
+        nums[f"{inp}: alpha1 / eps (K~1 = {_q(ov, 'K1t'):.3g})"] = (
+            f"{_q(ov, 'alpha1'):.4g} / {_q(ov, 'eps'):.4g}")
+        paper[inp] = _q(ov, "holds14") == 1
         mem = run_in_memory(ov)
-        obs = mem.experiment.system.observers[0]
-        es = th.ErrorSystem(*obs.error_matrices())
-        tr = mem.trajectory
-        K1t, eps, alpha1 = best_K1t(es, _q(ov, "K1a_sdp"), tr.t, tr.z[:, 1], PSI, 5.0)
-        nums[f"{inp}: best K~1, alpha1 / eps_max (sharp c)"] = (
-            f"{K1t:.4g}, {alpha1:.4g} / {eps:.4g}")
-        certified[inp] = alpha1 < eps or _q(ov, "holds14") == 1
-    ok = converged["moreno_sin"] and converged["moreno_sin5"] and not any(certified.values())
+        out = MorenoCertificate(lambda_P="sharp", K1t_search=True).apply(
+            mem.experiment.system, mem.trajectory)
+        r = {row["quantity"]: row["empirical"] for row in out.rows}
+        ours[inp] = r["holds14"] == 1
+        nums[f"{inp}: ours K~1, alpha1 / eps, bound reaches 1e-3 at"] = (
+            f"{r['K1t']:.4g}, {r['alpha1']:.4g} / {r['eps']:.4g}, {r['t_bound14_1e-3']:.4g}")
+    ok = (converged["moreno_sin"] and converged["moreno_sin5"] and not any(paper.values())
+          and ours["moreno_sin5"] and not ours["moreno_sin"] and not ours["moreno_sin1"])
     return Measured(bool(ok), nums, "narrower: the observer converges on the exciting inputs "
-                    "(sin 2, sin 5, also sin 1), but (14) fails on every run with every K~1 "
-                    "tried: convergence is observed, not certified by Theorem 3")
+                    "(sin 2, sin 5, also sin 1); (14) holds on none of them with K~1 = K1^a + "
+                    "delta/2, and only on sin 5 with K~1 searched on the run and the sharp c")
 
 
 @claim(paper=P, id="C15_remark6_item1", where="Remark 6, item 1",
@@ -415,6 +434,24 @@ def c16_bad() -> Measured:
                                    -_linear_rates(0.0)[0])})
 
 
+def _spurious_equilibrium(guess: np.ndarray, a: float) -> tuple[np.ndarray, np.ndarray]:
+    """Equilibrium e* of the error system (5) at sigma = 0 near ``guess`` (Fig. 1 gains,
+    plant parameter a) and the eigenvalues of (5) linearised there."""
+    from scipy.optimize import fsolve
+
+    es = example_error_system(*PAPER_GAINS, a)
+    plant = moreno_example_plant(a)
+
+    def rhs(e):
+        return es.A_L @ e + es.G * plant.phi(es.H_N @ e, 0.0)
+
+    e_star = fsolve(rhs, guess, xtol=1e-13)
+    h = 1e-7
+    jac = np.column_stack([(rhs(e_star + h * d) - rhs(e_star - h * d)) / (2 * h)
+                           for d in np.eye(2)])
+    return e_star, np.linalg.eigvals(jac)
+
+
 @claim(paper=P, id="C17_strong_runs", where="Section 5",
        statement="a > 0: the observer converges for every trajectory, u = 0 included",
        runs=tuple(" ".join(_pe(*e, f"controller={i}")) for e, _ in STRONG_RUNS
@@ -432,6 +469,11 @@ def c17_strong_runs() -> Measured:
     ov = _pe("plant.a=0.5", "controller=moreno_bad")
     n20, n40 = _q(ov, "norm_e_t20"), _q(ov, "norm_e_t40")
     nums["paper gains a = 0.5, u = 0: ||e(20)||, ||e(40)||"] = f"{n20:.5g}, {n40:.5g}"
+    e_star, eigs = _spurious_equilibrium(_errors(ov)[2][-1], 0.5)
+    nums["|e(40) - e*| (equilibrium of (5) at sigma = 0)"] = float(
+        np.linalg.norm(_errors(ov)[2][-1] - e_star))
+    nums["eigenvalues of (5) linearised at e*"] = f"{eigs[0]:.4g}, {eigs[1]:.4g}"
+    ok &= bool(np.all(eigs.real < 0))
     return Measured(bool(ok and n40 > 0.1), nums,
                     "narrower: converges with gains that pass the circle criterion at K1 = -2; "
                     "with the Fig. 1 gains at a = 0.5 (K1^a = -1.82) and u = 0 the error stalls "

@@ -72,6 +72,7 @@ class ProfileInputConf:
     amp: float = 2.0
     omega: float = 1.0
     t_back: float = 9.0
+    ramp: str = "smooth"
 
 
 @dataclass
@@ -84,8 +85,10 @@ class MorenoCertificateConf:
     regularisation: str = "margin"
     eps_fraction: float = 0.99
     K1t: float | None = None
-    window: float = 5.0
+    window: float | None = None
     norm_floor: float = 1.0e-6
+    K1t_search: bool = False
+    mu: float = 1.0e-7
 
 
 @dataclass

@@ -154,8 +154,8 @@ def lmi_7a(es: ErrorSystem, K1: float, eps: float, mu: float = 1e-7) -> Lmi7aRes
 
 def eps_max_lmi(es: ErrorSystem, K1: float, rtol: float = 1e-6, mu: float = 1e-7,
                 cap: float = 1e4) -> float:
-    """sup{eps : (7a) feasible at K1} by doubling then bisection; 0 if infeasible at
-    eps = 0 ... reported as -inf (no stability at this sector)."""
+    """sup{eps : (7a) feasible at K1} by doubling then bisection (relative ``rtol``);
+    -inf when (7a) is infeasible already at eps = 0 (K1 is not in the stability sector)."""
     ok = lambda e: lmi_7a(es, K1, e, mu).feasible  # noqa: E731
     if not ok(0.0):
         return -np.inf
