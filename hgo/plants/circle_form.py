@@ -26,6 +26,7 @@ import numpy as np
 
 from hgo.components import Plant
 from hgo.engine.jit import kernel_helper
+from hgo.papers.moreno.sector import global_sector_lower
 
 
 @kernel_helper
@@ -111,8 +112,6 @@ def circle_form_plant(A: Sequence[Sequence[float]], G: Sequence[float], C: Seque
     coeffs = np.asarray(psi, float).reshape(-1)
     if coeffs.size < 1 or not np.all(np.isfinite(coeffs)):
         raise ValueError(f"plant.psi must be >= 1 finite coefficients, got {coeffs.tolist()}")
-    from hgo.papers.moreno.sector import global_sector_lower
-
     p = np.concatenate([A.ravel(), G, C, H, B, [coeffs.size], coeffs])
     lin = float(np.max(np.abs(np.linalg.eigvals(A))))
     return CircleFormPlant(
