@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hgo.controllers.profile_input import profile_input
+from hgo.controllers.profile_input import profile, profile_input
 from hgo.observers.circle_criterion import circle_criterion_observer
 from hgo.papers.moreno import theory as th
 from hgo.papers.moreno.sector_table import example_error_system
@@ -94,6 +94,7 @@ def test_remark63_alpha_and_gamma():
                                        e0=[0, 0]), "observer.c.N must be finite"),
     (lambda: profile_input("ramp"), "controller.kind: 'ramp' not in"),
     (lambda: profile_input("pulse", tau=0), "controller.tau must be > 0"),
+    (lambda: profile_input("pulse", ramp="cubic"), "controller.ramp: 'cubic' not in"),
     (lambda: moreno_certificate(lambda_P="max"), "postprocess.moreno.lambda_P: 'max' not in"),
     (lambda: moreno_certificate(eps_fraction=1.0), "postprocess.moreno.eps_fraction must be"),
     (lambda: moreno_certificate(K1t=float("inf")), "postprocess.moreno.K1t must be finite"),
@@ -102,3 +103,23 @@ def test_remark63_alpha_and_gamma():
 def test_builders_reject_bad_values(call, message):
     with pytest.raises(ValueError, match=message.replace("(", r"\(").replace("[", r"\[")):
         call()
+
+
+@pytest.mark.parametrize("ramp", ["smooth", "linear"])
+def test_profile_input_drives_x2_along_the_profile(ramp):
+    """u = r' + a r makes x2 = r (a = 0.5, pulse then return): x2' = -a x2 + u integrated
+    by the trapezoid rule on a 1e-5 grid stays within 1e-6 of r (smooth ramp) or within
+    5e-5 = h * jump of u (linear ramp, whose u jumps by level / tau = 4 at the corners,
+    while the smooth ramp's u is continuous there: jump < 1e-9)."""
+    c = profile_input("pulse_return", a=0.5, ramp=ramp)
+    t = np.linspace(0, 12, 1_200_001)
+    r, dr = np.array([profile(s, c.p) for s in t]).T
+    u = dr + 0.5 * r
+    x2 = np.zeros_like(t)
+    h = t[1] - t[0]
+    for i in range(t.size - 1):  # trapezoid rule for x2' = -a x2 + u, exact for linear u
+        x2[i + 1] = ((1 - 0.25 * h) * x2[i] + 0.5 * h * (u[i] + u[i + 1])) / (1 + 0.25 * h)
+    assert np.max(np.abs(x2 - r)) <= (1e-6 if ramp == "smooth" else 5e-5)
+    jump = max(abs(profile(5.0 + 1e-12, c.p)[1] - profile(5.0 - 1e-12, c.p)[1]),
+               abs(profile(5.5 + 1e-12, c.p)[1] - profile(5.5 - 1e-12, c.p)[1]))
+    assert jump < 1e-9 if ramp == "smooth" else abs(jump - 4.0) < 1e-9
