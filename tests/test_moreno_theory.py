@@ -108,18 +108,18 @@ def test_builders_reject_bad_values(call, message):
 @pytest.mark.parametrize("ramp", ["smooth", "linear"])
 def test_profile_input_drives_x2_along_the_profile(ramp):
     """u = r' + a r makes x2 = r (a = 0.5, pulse then return): x2' = -a x2 + u integrated
-    by the trapezoid rule on a 1e-5 grid stays within 1e-6 of r (smooth ramp) or within
-    5e-5 = h * jump of u (linear ramp, whose u jumps by level / tau = 4 at the corners,
+    by the trapezoid rule on a 1e-4 grid stays within 1e-6 of r (smooth ramp) or within
+    5e-4 > h * jump of u (linear ramp, whose u jumps by level / tau = 4 at the corners,
     while the smooth ramp's u is continuous there: jump < 1e-9)."""
     c = profile_input("pulse_return", a=0.5, ramp=ramp)
-    t = np.linspace(0, 12, 1_200_001)
+    t = np.linspace(0, 12, 120_001)
     r, dr = np.array([profile(s, c.p) for s in t]).T
     u = dr + 0.5 * r
     x2 = np.zeros_like(t)
     h = t[1] - t[0]
     for i in range(t.size - 1):  # trapezoid rule for x2' = -a x2 + u, exact for linear u
         x2[i + 1] = ((1 - 0.25 * h) * x2[i] + 0.5 * h * (u[i] + u[i + 1])) / (1 + 0.25 * h)
-    assert np.max(np.abs(x2 - r)) <= (1e-6 if ramp == "smooth" else 5e-5)
+    assert np.max(np.abs(x2 - r)) <= (1e-6 if ramp == "smooth" else 5e-4)
     jump = max(abs(profile(5.0 + 1e-12, c.p)[1] - profile(5.0 - 1e-12, c.p)[1]),
                abs(profile(5.5 + 1e-12, c.p)[1] - profile(5.5 - 1e-12, c.p)[1]))
     assert jump < 1e-9 if ramp == "smooth" else abs(jump - 4.0) < 1e-9
