@@ -36,6 +36,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg as sla
 
+from hgo.lmi import bisect, sym
+
 __all__ = [
     "ConditionReport",
     "Design",
@@ -190,11 +192,6 @@ def check_conditions(
     return ConditionReport(lam_min, lyap_max, decay, r_lo, r_hi, bool(holds), tol)
 
 
-def _sym(M):
-    """Symmetric part of a matrix or a cvxpy expression."""
-    return 0.5 * (M + M.T)
-
-
 class _LmiProblem:
     """Parametrised SDP in (P, Y = P K~) for fixed (d0, d1): Sanfelice & Praly (8)-(10)."""
 
@@ -209,11 +206,11 @@ class _LmiProblem:
         self.d1 = cp.Parameter(nonneg=True)
         P, Y = self.P, self.Y
         lyap = A.T @ P + P @ A - C.T @ Y.T - Y @ C + 2 * self.d0 * P
-        rsum = _sym(R @ P + P @ R)
+        rsum = sym(R @ P + P @ R)
         constraints = [
             P >> eye,
             P << kappa * eye,
-            _sym(lyap) << -margin * eye,
+            sym(lyap) << -margin * eye,
             rsum - (b / 2) * P >> margin * eye,
             self.d1 * P - rsum >> margin * eye,
         ]
@@ -236,20 +233,6 @@ class _LmiProblem:
         return K, P
 
 
-def _bisect(pred, good: float, bad: float, rtol: float) -> float:
-    """Bisection on a monotone predicate: ``pred(good)`` is True, ``pred(bad)`` False.
-
-    Returns a point where ``pred`` is True, within ``rtol`` (relative) of the boundary.
-    """
-    while abs(good - bad) > rtol * max(abs(good), abs(bad)):
-        mid = 0.5 * (good + bad)
-        if pred(mid):
-            good = mid
-        else:
-            bad = mid
-    return good
-
-
 def _max_d0(lmi: _LmiProblem, d1_big: float, d0_cap: float, rtol: float) -> float:
     """Maximise d0 in (9) by doubling then bisection (Sanfelice & Praly (9))."""
     lo, hi = 0.0, 1.0
@@ -263,7 +246,7 @@ def _max_d0(lmi: _LmiProblem, d1_big: float, d0_cap: float, rtol: float) -> floa
             lo /= 2
             if lo < 1e-6:
                 raise RuntimeError("conditions (8)-(10) infeasible for this (n, b, kappa)")
-    return _bisect(lambda d0: lmi.feasible(d0, d1_big), lo, hi, rtol)
+    return bisect(lambda d0: lmi.feasible(d0, d1_big), lo, hi, rtol)
 
 
 def design_gains(
@@ -316,7 +299,7 @@ def design_gains(
     if not lmi.feasible(d0_val, d1_big):
         raise RuntimeError(f"(9) infeasible with d0={d0_val} and kappa={kappa}")
     d1_lo = 2 * b + n - 1  # mean of the generalised eigenvalues of RP + PR: trace(2R)/n
-    d1 = _bisect(lambda x: lmi.feasible(d0_val, x), d1_big, d1_lo, rtol)
+    d1 = bisect(lambda x: lmi.feasible(d0_val, x), d1_big, d1_lo, rtol)
     if not lmi.feasible(d0_val, d1):  # re-solve at the returned d1 (leaves the solution in lmi)
         raise RuntimeError("SDP not reproducible at the bisected d1")
     K, P = lmi.solution()

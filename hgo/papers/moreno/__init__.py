@@ -1,0 +1,1 @@
+"""Moreno, *Observer design for a class of nonlinear systems with bad trajectories*."""

@@ -1,0 +1,125 @@
+"""Moreno's sector tools: LMI (7) against the exact SPR test, (7b), builders' errors."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hgo.controllers.profile_input import profile, profile_input
+from hgo.observers.circle_criterion import circle_criterion_observer
+from hgo.papers.moreno import theory as th
+from hgo.papers.moreno.sector_table import example_error_system
+from hgo.plants.circle_form import circle_form_plant, moreno_example_plant
+from hgo.postprocess.moreno import first_time_below, moreno_certificate, windowed_alpha
+
+GAINS = [(2, 200, 120, 0), (1, 50, 10, 0), (5, 1000, 500, 0), (2, 200, 120, 0.5),
+         (2, 200, 20, 0.5), (2, 200, 120, 1), (2, 200, 10, 0.1)]
+
+
+@pytest.mark.parametrize("g", GAINS)
+def test_lmi_and_exact_spr_agree_on_k1a(g):
+    """K1^a by the SDP of (7a) (1e-6), by the exact SPR bisection and the closed form (1e-9),
+    for the seven gain sets of the moreno_sector preset."""
+    es = example_error_system(*g)
+    closed = th.k1a_closed(*g)
+    assert abs(th.k1a_sdp(es) - closed) <= 1e-6
+    assert abs(th.k1a_fd(es) - closed) <= 1e-9
+
+
+@pytest.mark.parametrize("rho", [-0.9, 0.0, 2.0])
+def test_lmi_and_exact_spr_agree_on_eps_max(rho):
+    """eps_max(rho) by LMI bisection and by the shifted SPR test agree to 1e-5 (relative) for
+    the Fig. 1 gains, and the LMI's P satisfies the unsubstituted (7a)."""
+    es = example_error_system(2, 200, 120, 0)
+    e_lmi, e_fd = th.eps_max_lmi(es, rho), th.eps_max_fd(es, rho)
+    assert abs(e_lmi - e_fd) <= 1e-5 * e_fd
+    res = th.lmi_7a(es, rho, 0.99 * e_lmi)
+    top, eq = th.unsubstituted_7a(es, res.P, rho, 0.99 * e_lmi)
+    assert res.feasible and top <= 1e-7 and eq <= 1e-7
+    assert not th.lmi_7a(es, rho, 1.01 * e_fd).feasible
+
+
+def test_spr_exact_known_cases():
+    """1/(s+1) and (s+2)/(s^2+3s+1) are SPR; 1/(s+1)^2 (relative degree 2), 1/(s-1) and
+    (s-1)/(s+1)^2 are not; (s+1)/(s^2+s+4) has Re H(j2) < 0 and is not."""
+    assert th.spr_exact([1], [1, 1])
+    assert th.spr_exact([1, 2], [1, 3, 1])
+    assert not th.spr_exact([1], [1, 2, 1])
+    assert not th.spr_exact([1], [1, -1])
+    assert not th.spr_exact([1, -1], [1, 2, 1])
+    assert not th.spr_exact([0.1, 1], [1, 0.1, 4])
+
+
+def test_lmi_7b_linear_sector_toy():
+    """(7b) on e' = -e + phi(z), z = e (A_L = -1, G = H_N = 1; phi = K z is stable iff K < 1,
+    the circle criterion's sector [0, 1)). With the paper's corner -I (W^T W = I) the LMI
+    certifies [0, K2] only for K2 <= 1/2 ((p + K)^2 <= 2p needs K <= 1/2); with the
+    textbook corner -2I up to K2 < 1."""
+    es = th.ErrorSystem(np.array([[-1.0]]), np.array([1.0]), np.array([1.0]))
+    assert th.lmi_7b(es, 0.0, 0.45, 0.0) and not th.lmi_7b(es, 0.0, 0.55, 0.0)
+    assert th.lmi_7b(es, 0.0, 0.98, 0.0, corner=2) and not th.lmi_7b(es, 0.0, 1.02, 0.0,
+                                                                      corner=2)
+    with pytest.raises(ValueError, match="design.corner must be 1 or 2"):
+        th.lmi_7b(es, 0.0, 1.0, 0.0, corner=3)
+
+
+def test_structural_lower_bound_at_a0():
+    """a = 0: K1^a >= -1 for random gains (closed form), never below (notes 8.4)."""
+    rng = np.random.default_rng(3)
+    for k, l1, l2 in rng.uniform([0.1, 0, 0.1], [10, 1000, 1000], (50, 3)):
+        assert th.k1a_closed(k, l1, l2, 0.0) >= -1
+
+
+def test_remark63_alpha_and_gamma():
+    """varrho = 1 on [0, 1), 0 after: over t >= t_f/2 - Delta the window mean is 0, so
+    alpha1 = 0 and gamma = int varrho = 1 (least constant)."""
+    t = np.linspace(0, 20, 20001)
+    cum = np.minimum(t, 1.0)
+    alpha1, gamma = windowed_alpha(t, cum, 2.0)
+    assert alpha1 == 0 and abs(gamma - 1) < 1e-12
+    assert first_time_below(t, np.exp(-t), 1e-3) == pytest.approx(np.log(1e3), abs=1e-6)
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda: moreno_example_plant(a=-1), "plant.a must be a finite number >= 0, got -1"),
+    (lambda: circle_form_plant([[1, 0]], [1], [1], [1], [1], [0, 1], [0]),
+     "plant.A must be a finite square matrix"),
+    (lambda: circle_form_plant([[1]], [1, 2], [1], [1], [1], [0, 1], [0]),
+     "plant.G must have n=1 entries, got 2"),
+    (lambda: circle_criterion_observer("c", moreno_example_plant(), [1, 2, 3], 2, e0=[0, 0]),
+     "observer.c.L must have n=2 finite entries"),
+    (lambda: circle_criterion_observer("c", moreno_example_plant(), [1, 2], 2),
+     "observer.c: give exactly one of xhat0 and e0"),
+    (lambda: circle_criterion_observer("c", moreno_example_plant(), [1, 2], float("nan"),
+                                       e0=[0, 0]), "observer.c.N must be finite"),
+    (lambda: profile_input("ramp"), "controller.kind: 'ramp' not in"),
+    (lambda: profile_input("pulse", tau=0), "controller.tau must be > 0"),
+    (lambda: profile_input("pulse", ramp="cubic"), "controller.ramp: 'cubic' not in"),
+    (lambda: moreno_certificate(lambda_P="max"), "postprocess.moreno.lambda_P: 'max' not in"),
+    (lambda: moreno_certificate(eps_fraction=1.0), "postprocess.moreno.eps_fraction must be"),
+    (lambda: moreno_certificate(K1t=float("inf")), "postprocess.moreno.K1t must be finite"),
+    (lambda: moreno_certificate(K1t=0.0, K1t_search=True), "give K1t or K1t_search"),
+])
+def test_builders_reject_bad_values(call, message):
+    with pytest.raises(ValueError, match=message.replace("(", r"\(").replace("[", r"\[")):
+        call()
+
+
+@pytest.mark.parametrize("ramp", ["smooth", "linear"])
+def test_profile_input_drives_x2_along_the_profile(ramp):
+    """u = r' + a r makes x2 = r (a = 0.5, pulse then return): x2' = -a x2 + u integrated
+    by the trapezoid rule on a 1e-4 grid stays within 1e-6 of r (smooth ramp) or within
+    5e-4 > h * jump of u (linear ramp, whose u jumps by level / tau = 4 at the corners,
+    while the smooth ramp's u is continuous there: jump < 1e-9)."""
+    c = profile_input("pulse_return", a=0.5, ramp=ramp)
+    t = np.linspace(0, 12, 120_001)
+    r, dr = np.array([profile(s, c.p) for s in t]).T
+    u = dr + 0.5 * r
+    x2 = np.zeros_like(t)
+    h = t[1] - t[0]
+    for i in range(t.size - 1):  # trapezoid rule for x2' = -a x2 + u, exact for linear u
+        x2[i + 1] = ((1 - 0.25 * h) * x2[i] + 0.5 * h * (u[i] + u[i + 1])) / (1 + 0.25 * h)
+    assert np.max(np.abs(x2 - r)) <= (1e-6 if ramp == "smooth" else 5e-4)
+    jump = max(abs(profile(5.0 + 1e-12, c.p)[1] - profile(5.0 - 1e-12, c.p)[1]),
+               abs(profile(5.5 + 1e-12, c.p)[1] - profile(5.5 - 1e-12, c.p)[1]))
+    assert jump < 1e-9 if ramp == "smooth" else abs(jump - 4.0) < 1e-9
