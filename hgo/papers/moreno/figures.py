@@ -11,6 +11,7 @@ from hgo.controllers.profile_input import profile_input
 from hgo.engine.simulate import Trajectory, simulate
 from hgo.engine.system import System
 from hgo.figures import save_figure
+from hgo.reproduce import PaperFigure
 
 BAND = 2 / math.sqrt(3)  # |sigma| <= 2/sqrt(3): phi can leave (-1, inf]
 
@@ -63,3 +64,16 @@ def fig1(result, path, overlay_bad: bool = True) -> None:
     axes[0].set_title(title, fontsize=10)
     save_figure(fig, path)
 
+
+
+# --- what ``hgo reproduce`` runs ------------------------------------------------------------
+
+PAPER_FIGURES = [
+    PaperFigure("moreno_fig1", {"fig1": "Simulation results for the example with the following "
+                                "parameters: a = 0, k = 2, l1 = 200, l2 = 120, x0 = 0, "
+                                "e0 = (70, -50). Shown are the input applied u, the state "
+                                "variable x2, and the estimation errors e1, e2."}),
+    PaperFigure("moreno_sector", {"sector_table": "(Not a figure of the paper.) The sector "
+                                  "bounds K1^a and eps_max of (7)-(8) by LMI and by the exact "
+                                  "SPR test, side by side, for the gain sets of the notes."}),
+]
