@@ -273,6 +273,35 @@ class AggregateCallback(Callback):
                   f"{config.hydra.sweep.dir}", file=sys.stderr)
 
 
+class SweepSummary(Callback):
+    """Hydra callback (every multirun, ``conf/config.yaml``): at the end, one table of the
+    jobs with their varying overrides, status and key metric, from their ``run.json``."""
+
+    def on_multirun_end(self, config, **kwargs) -> None:
+        print(sweep_summary(Path(config.hydra.sweep.dir)), flush=True)
+
+
+def sweep_summary(sweep: Path) -> str:
+    """``<n> jobs in <sweep>: <k> ok`` then a row per job (the table fits 100 columns)."""
+    import json
+
+    jobs = _job_dirs(sweep)
+    overrides = {j.name: _overrides(j) for j in jobs}
+    labels = _varying(overrides) if overrides else {}
+    lines, n_ok = [], 0
+    for job in jobs:
+        info = job / "run.json"
+        data = json.loads(info.read_text()) if info.exists() else {}
+        status = data.get("status", "no run.json (the job did not finish)")
+        n_ok += status == "ok"
+        metric = next(iter(data.get("metrics", {}).items()), None)
+        shown = (f"{metric[0].rsplit('/', 1)[-1][:26]} = {metric[1]:.4g}"
+                 if metric and metric[1] is not None else "")
+        lines.append(f"  {job.name:6s} {labels.get(job.name, '')[:34]:34s} "
+                     f"{status[:14]:14s} {shown}")
+    return "\n".join([f"sweep: {len(jobs)} jobs in {sweep}: {n_ok} ok", *lines])
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("sweep", help="sweep directory (outputs/multirun/<run_name>/<date_time>)")

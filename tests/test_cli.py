@@ -121,3 +121,11 @@ def test_index_reads_run_json_only(tmp_path):
     assert len(df) == 200 and sorted(df["config.observer.a.p"]) == list(range(200))
     assert (df["metric.a/q"] == 1.5).all()
     print(f"indexed 200 runs in {time.perf_counter() - t0:.3f} s")
+
+
+def test_sweep_ends_with_a_summary_of_its_jobs(workdir):
+    _, _, sweep = workdir
+    tail = sweep.stdout[sweep.stdout.index("sweep: 3 jobs in "):].splitlines()
+    assert tail[0].endswith(": 3 ok")
+    assert [row.split()[0] for row in tail[1:4]] == ["job0", "job1", "job2"]
+    assert all(len(row) <= 100 for row in tail[:4])
