@@ -10,7 +10,7 @@ import numpy as np
 from hgo.controllers.profile_input import profile_input
 from hgo.engine.simulate import Trajectory, simulate
 from hgo.engine.system import System
-from hgo.figures import save_figure
+from hgo.figures import legend_outside, panel_letters, save_figure
 from hgo.reproduce import PaperFigure
 
 BAND = 2 / math.sqrt(3)  # |sigma| <= 2/sqrt(3): phi can leave (-1, inf]
@@ -39,13 +39,16 @@ def fig1(result, path, overlay_bad: bool = True) -> None:
     sysm, traj = result.experiment.system, result.trajectory
     t = traj.t
     e = _errors(sysm, traj)
-    fig, axes = plt.subplots(4, 1, figsize=(8, 9), sharex=True)
-    axes[0].plot(t, traj.u[:, 0], color="tab:blue")
-    axes[0].set_ylabel("u")
-    axes[1].plot(t, traj.z[:, 1], color="tab:blue", label="x2")
-    axes[1].axhspan(-BAND, BAND, color="tab:red", alpha=0.12, label="|x2| <= 2/sqrt(3)")
-    axes[1].set_ylabel("x2")
-    axes[1].legend(fontsize=8, loc="upper left")
+    fig, axes = plt.subplots(4, 1, figsize=(10, 9), sharex=True)
+    # the example of Section 5 is dimensionless: (–) on the state axes
+    axes[0].plot(t, traj.u[:, 0], color="tab:blue", label="input $u$")
+    axes[0].set_ylabel("$u$ (–)")
+    legend_outside(axes[0])
+    axes[1].plot(t, traj.z[:, 1], color="tab:blue", label="$x_2$")
+    axes[1].axhspan(-BAND, BAND, color="tab:red", alpha=0.12,
+                    label=r"$|x_2| \leq 2/\sqrt{3}$")
+    axes[1].set_ylabel("$x_2$ (–)")
+    legend_outside(axes[1])
     bad = bad_companion(result) if overlay_bad else None
     for k, (ax, thresh) in enumerate(zip(axes[2:], (1e-2, 1e-1), strict=True)):
         ax.plot(t, e[:, k], color="tab:blue", label="input of the run")
@@ -53,17 +56,16 @@ def fig1(result, path, overlay_bad: bool = True) -> None:
             eb = _errors(sysm, bad)
             ax.plot(bad.t, eb[:, k], "k--", lw=1, label="bad input u = 0 (r = 0)")
         ax.set_yscale("symlog", linthresh=thresh)
-        ax.set_ylabel(f"e{k + 1} = x{k + 1} - x^{k + 1}")
-        ax.legend(fontsize=8, loc="upper right")
-    for ax in axes:
-        ax.grid(alpha=0.3)
-    axes[-1].set_xlabel("t [s]")
+        ax.set_ylabel(rf"$e_{k + 1} = x_{k + 1} - \hat{{x}}_{k + 1}$ (–)")
+        legend_outside(ax)
+    axes[-1].set_xlabel("$t$ (s)")
+    panel_letters(axes)
     obs = sysm.observers[0]
-    title = (f"Moreno Fig. 1: a = {-sysm.plant.A[1, 1]:g}, k = {obs.N:g}, "
-             f"l1 = {obs.L[0]:g}, l2 = {obs.L[1]:g}, e0 = ({e[0, 0]:g}, {e[0, 1]:g})")
-    axes[0].set_title(title, fontsize=10)
+    title = (f"Moreno Fig. 1: $a = {-sysm.plant.A[1, 1]:g}$, $k = {obs.N:g}$, "
+             f"$l_1 = {obs.L[0]:g}$, $l_2 = {obs.L[1]:g}$, "
+             f"$e_0 = ({e[0, 0]:g}, {e[0, 1]:g})$")
+    fig.suptitle(title)
     save_figure(fig, path)
-
 
 
 # --- what ``hgo reproduce`` runs ------------------------------------------------------------
