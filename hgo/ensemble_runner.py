@@ -148,6 +148,26 @@ def _aggregate(members: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
+def merge_shards(shard_dirs: list[str | Path], out: str | Path | None = None) -> pd.DataFrame:
+    """The metrics table of the whole ensemble from its shards' ``metrics.csv``: member
+    rows in member order, aggregates recomputed over all members (the table the unsharded
+    run writes). With ``out``, written there as ``metrics.csv``."""
+    tables = [pd.read_csv(Path(d) / "metrics.csv", dtype={"member": str}) for d in shard_dirs]
+    ids = [set(t.member[t.member != "all"]) for t in tables]
+    if sum(map(len, ids)) != len(set().union(*ids)):
+        raise ValueError("merge_shards: a member is in more than one shard")
+    members = pd.concat([t[t.member != "all"] for t in tables], ignore_index=True)
+    order = np.argsort(members.member.astype(int).to_numpy(), kind="stable")
+    members = members.iloc[order].reset_index(drop=True)
+    run = members.pop("run")
+    table = pd.concat([members, _aggregate(members)], ignore_index=True)
+    table.insert(0, "run", run.iloc[0])
+    if out is not None:
+        Path(out).mkdir(parents=True, exist_ok=True)
+        table.to_csv(Path(out) / "metrics.csv", index=False)
+    return table
+
+
 def _record_member0(cfg, out_dir, systems, solver, noise, size, post, first) -> None:
     """The representative recording: member 0's run (``first``, its trajectory if kept,
     else simulated again) with its post-processed series."""
