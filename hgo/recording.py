@@ -30,7 +30,6 @@ Notes
 
 from __future__ import annotations
 
-import os
 import re
 import warnings
 from collections.abc import Mapping, Sequence
@@ -38,15 +37,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-
-# Rerun's allocator (mimalloc) keeps the pages of ended threads (each closed stream's) until
-# another thread reuses them: a sweep of 1e6-sample recordings then raised its peak RSS job
-# after job. Purging them flattened it (benchmarks/sweeps_bench.py, memory row). Read when
-# rerun's library loads, so before `import rerun`; an explicit setting wins.
-os.environ.setdefault("MIMALLOC_ABANDONED_PAGE_PURGE", "1")
-
-import rerun as rr  # noqa: E402
-import rerun.blueprint as rrb  # noqa: E402
+import rerun as rr
+import rerun.blueprint as rrb
 
 __all__ = [
     "TIMELINE",
