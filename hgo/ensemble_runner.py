@@ -140,7 +140,7 @@ def _aggregate(members: pd.DataFrame) -> pd.DataFrame:
         has_bound = bool(np.isfinite(ok.bound.to_numpy(float)).any())
         rows.append({"member": "all", "observer": obs, "postprocess": pp, "quantity": quantity,
                      "empirical": values.mean() if len(values) else np.nan,
-                     "std": values.std(ddof=1) if len(values) > 1 else np.nan,
+                     "std": _std(values),
                      "min": values.min() if len(values) else np.nan,
                      "max": values.max() if len(values) else np.nan,
                      "n_ok": len(ok), "n_failed": int((grp.status != "ok").sum()),
@@ -166,6 +166,14 @@ def merge_shards(shard_dirs: list[str | Path], out: str | Path | None = None) ->
         Path(out).mkdir(parents=True, exist_ok=True)
         table.to_csv(Path(out) / "metrics.csv", index=False)
     return table
+
+
+def _std(values: np.ndarray) -> float:
+    """Sample standard deviation (inf when the squares overflow, e.g. vacuous bounds)."""
+    if len(values) < 2:
+        return np.nan
+    with np.errstate(over="ignore"):
+        return float(values.std(ddof=1))
 
 
 def _record_member0(cfg, out_dir, systems, solver, noise, size, post, first) -> None:
