@@ -2,6 +2,7 @@
 
     python benchmarks/run.py           # full run (~2 min here, < 10 min on 2 cores)
     python benchmarks/run.py --quick   # reduced run (< 60 s after compilation)
+    python benchmarks/run.py --only grid,recording,memory   # a subset (see --help)
 
 Times are medians of >= 3 runs after compilation (CPU-bound; wall clock), ratios are
 taken inside the same run. Prints the tables and ends with one line
@@ -46,6 +47,7 @@ B_T, B_DT = 200.0, 0.01
 A_T, A_NOISE_DT, A_DT_OUT, A_NOISE = 20.0, 0.0008, 0.004, 0.0016
 A_SWITCH = 1.0
 P2_INDEX = 2 + 3  # params: plant [nu1, nu2], observer [n, law, p1, p2, ...]
+SWEEP_ROWS = ("grid", "recording", "memory", "joblib")  # sections of sweeps_bench.py
 # repetitions of the millisecond runs of hgo and the hand kernels (medians): their
 # distribution here has a long tail (8-13 ms for one 8 ms run), 5 samples are not enough
 FAST_REPS = 15
@@ -189,8 +191,20 @@ def table(title: str, header: list[str], rows: list[list]) -> None:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--quick", action="store_true", help="reduced run (< 60 s)")
+    ap.add_argument("--only", help="comma-separated subset: core (the issue-5 tables), "
+                    "sweeps (all of sweeps_bench.py) or its rows grid, recording, memory, "
+                    "joblib; default: core and sweeps")
     args = ap.parse_args()
     quick = args.quick
+    only = set(args.only.split(",")) if args.only else {"core", "sweeps"}
+    rows = only & set(SWEEP_ROWS)
+    if "sweeps" in only or rows:
+        import sweeps_bench
+
+        sweeps = sweeps_bench.bench(quick, None if "sweeps" in only else rows)
+        print("\nsweeps: " + " ".join(f"{k}={v:.3g}" for k, v in sweeps.items()))
+    if "core" not in only:
+        return
     reps = 3 if quick else 5
     t_start = time.perf_counter()
     print(f"# hgo benchmark ({'quick' if quick else 'full'}), {os.cpu_count()} cores, "

@@ -150,12 +150,40 @@ def _aggregate(members: pd.DataFrame) -> pd.DataFrame:
         has_bound = bool(np.isfinite(ok.bound.to_numpy(float)).any())
         rows.append({"member": "all", "observer": obs, "postprocess": pp, "quantity": quantity,
                      "empirical": values.mean() if len(values) else np.nan,
-                     "std": values.std(ddof=1) if len(values) > 1 else np.nan,
+                     "std": _std(values),
                      "min": values.min() if len(values) else np.nan,
                      "max": values.max() if len(values) else np.nan,
                      "n_ok": len(ok), "n_failed": int((grp.status != "ok").sum()),
                      "holds_fraction": ok.holds.astype(float).mean() if has_bound else np.nan})
     return pd.DataFrame(rows)
+
+
+def merge_shards(shard_dirs: list[str | Path], out: str | Path | None = None) -> pd.DataFrame:
+    """The metrics table of the whole ensemble from its shards' ``metrics.csv``: member
+    rows in member order, aggregates recomputed over all members (the table the unsharded
+    run writes). With ``out``, written there as ``metrics.csv``."""
+    tables = [pd.read_csv(Path(d) / "metrics.csv", dtype={"member": str}) for d in shard_dirs]
+    ids = [set(t.member[t.member != "all"]) for t in tables]
+    if sum(map(len, ids)) != len(set().union(*ids)):
+        raise ValueError("merge_shards: a member is in more than one shard")
+    members = pd.concat([t[t.member != "all"] for t in tables], ignore_index=True)
+    order = np.argsort(members.member.astype(int).to_numpy(), kind="stable")
+    members = members.iloc[order].reset_index(drop=True)
+    run = members.pop("run")
+    table = pd.concat([members, _aggregate(members)], ignore_index=True)
+    table.insert(0, "run", run.iloc[0])
+    if out is not None:
+        Path(out).mkdir(parents=True, exist_ok=True)
+        table.to_csv(Path(out) / "metrics.csv", index=False)
+    return table
+
+
+def _std(values: np.ndarray) -> float:
+    """Sample standard deviation (inf when the squares overflow, e.g. vacuous bounds)."""
+    if len(values) < 2:
+        return np.nan
+    with np.errstate(over="ignore"):
+        return float(values.std(ddof=1))
 
 
 def _record_member0(cfg, out_dir, systems, solver, noise, size, post, first) -> None:
@@ -211,8 +239,7 @@ def prepare_ensemble(cfg: DictConfig) -> EnsemblePlan:
     noise = [noise_model(n["noise"]).sample(solver.t_end, ny, seed)
              for n, seed in zip(nodes, plan.seeds, strict=True)]
     stiffest = max(range(size), key=lambda i: rho_const(systems[i], solver))
-    check_cost(systems[stiffest], solver, noise_model(nodes[stiffest]["noise"]),
-               record=bool(cfg.get("postprocess")))
+    check_cost(systems[stiffest], solver, noise_model(nodes[stiffest]["noise"]))
     return EnsemblePlan(plan, nodes, systems, solver, noise, params, z0, d0)
 
 

@@ -262,13 +262,15 @@ def write_recording(
             return path
         path.parent.mkdir(parents=True, exist_ok=True)
         partial = partial_path(path)
-        rec.save(partial, default_blueprint=blueprint)
+        _save(rec, partial, blueprint)
         blocks = _time_blocks(time)
         for s, values in checked:
             _send_series(rec, s, values, blocks)
         for entity, doc in (text or {}).items():
             rec.log(entity, rr.TextDocument(doc), static=True)
         rec.log(COMPLETE, rr.TextDocument(f"{len(time)} samples"), static=True)
+    del rec
+    _release_closed_streams()
     os.replace(partial, path)  # only a complete file gets the final name
     return path
 
@@ -290,6 +292,39 @@ def atomic_output(path: str | Path) -> Iterator[Path]:
 
 class RecordingIncomplete(ValueError):
     """A recording whose writing did not finish (truncated, ``.partial``, unreadable)."""
+
+
+def _save(rec: rr.RecordingStream, path: Path, blueprint: rrb.Blueprint | None) -> None:
+    """``rec.save(path, default_blueprint=blueprint)``, with the blueprint's own stream
+    disconnected afterwards: Rerun 0.41 builds that stream in ``save`` and never ends its
+    two threads (2 threads and ~2 MB per recording in a sweep process). Mirrors
+    ``rerun.sinks.create_in_memory_blueprint``."""
+    if blueprint is None:
+        rec.save(path)
+        return
+    import rerun_bindings as bindings
+
+    stream = rr.RecordingStream._from_native(bindings.new_blueprint(
+        application_id=rec.get_application_id(), make_default=False,
+        make_thread_default=False, default_enabled=True))
+    stream.set_time("blueprint", sequence=0)
+    blueprint.to_blueprint()._log_to_stream(stream)
+    storage = stream.memory_recording().storage
+    bindings.save(path=str(path), default_blueprint=storage, recording=rec.to_native(),
+                  write_footer=True)
+    stream.disconnect()
+
+
+def _release_closed_streams() -> None:
+    """End the threads of closed streams now.
+
+    Rerun 0.41 keeps the two threads of a closed stream (``RecordingStream``,
+    ``ChunkBatcher``) and their memory until a sweep of orphaned streams, which its own
+    ``__del__`` does not trigger: a sweep process writing one recording per job grew by
+    ~1.6 MB per job (``benchmarks/sweeps_bench.py``, memory row; tests/test_sweeps.py)."""
+    from rerun_bindings import flush_and_cleanup_orphaned_recordings
+
+    flush_and_cleanup_orphaned_recordings()
 
 
 def _is_plain(expr: str) -> bool:
