@@ -44,7 +44,7 @@ def schedule_input(times: Sequence[float], values: Sequence[float],
                          f"entries, got {len(values)}")
     if not all(math.isfinite(v) for v in times + values):
         raise ValueError("controller.times and controller.values must be finite")
-    if any(b <= a for a, b in zip(times, times[1:])) or any(v <= 0 for v in times):
+    if any(b <= a for a, b in zip(times, times[1:], strict=False)) or any(v <= 0 for v in times):
         raise ValueError(f"controller.times must be > 0 and strictly increasing, got {times}")
     p = np.array([len(times), *times, *values], float)
     return Controller(name=name, p=p, u=u, observer=None)

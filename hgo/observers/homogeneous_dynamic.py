@@ -46,8 +46,16 @@ import numpy as np
 
 from hgo.components import Observer
 from hgo.engine.jit import kernel_helper
-from hgo.plants.contois import (clip, eta2_of_x, f2, invariance_eps, rate_bound, to_x,
-                                x2_high, x2_low)
+from hgo.plants.contois import (
+    clip,
+    eta2_of_x,
+    f2,
+    invariance_eps,
+    rate_bound,
+    to_x,
+    x2_high,
+    x2_low,
+)
 from hgo.plants.contois import df2max as df2max_search
 
 RATE_BOUNDS = {"df2max": 0, "omega1": 1, "omega2": 2}

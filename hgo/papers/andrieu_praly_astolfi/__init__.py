@@ -1,1 +1,1 @@
-"""Andrieu, Praly & Astolfi (IFAC 2007), homogeneous observers with dynamic high gains: Contois bioreactor, Figs. 1-2."""
+"""Andrieu, Praly & Astolfi (IFAC 2007), dynamic high gains: Contois bioreactor, Figs. 1-2."""
