@@ -65,15 +65,18 @@ GAINS = ("dynamic", "constant")
 
 @kernel_helper
 def spow(w, r):
-    """Signed power w^r = sign(w) |w|^r (the paper's notation)."""
+    """Signed power w^r = sign(w) |w|^r (the paper's notation); w itself at r = 1."""
+    if r == 1.0:
+        return w
     return math.copysign(math.pow(abs(w), r), w)
 
 
 @kernel_helper
-def correction(s, L, b, d, ell, homogeneous, n, out):
-    """out[i] = L^(i+1+b) K_(i+1)(s) for i < n: the correction of (7) with A(y) = I."""
+def correction(s, L, Lb, d, ell, homogeneous, n, out):
+    """out[i] = L^(i+1+b) K_(i+1)(s) for i < n: the correction of (7) with A(y) = I
+    (Lb = L^b, computed once by the caller)."""
     arg = s
-    Lp = math.pow(L, 1.0 + b)
+    Lp = L * Lb
     for i in range(n):
         r = 1.0 - d * (n - 1 - i)
         K = arg + spow(arg, (r + d) / r) if homogeneous else arg
@@ -105,7 +108,8 @@ def f(t, z, d, y, u, p, dz):
     L = z[2]
     ys = clip(y[0], eps1, 1.0 - eps2)
     xh2s = clip(z[1], x2_low(ys, eps2, hbar), x2_high(ys, hbar))
-    correction((z[0] - ys) / math.pow(L, b), L, b, q, ell, homogeneous, 2, dz)
+    Lb = math.pow(L, b)
+    correction((z[0] - ys) / Lb, L, Lb, q, ell, homogeneous, 2, dz)
     dz[0] = z[1] - u[0] * y[0] - dz[0]
     dz[1] = f2(ys, xh2s, u[0], hbar) - dz[1]
     omega = omega_now(kind, u[0], ys, z[1], q, hbar, eps2, dfmax)

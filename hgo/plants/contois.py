@@ -102,7 +102,7 @@ def df2_dx2(x1, x2, u, hbar):
 @kernel_helper
 def _g(A, B, C, x2, q):
     """|A + B x2^(1-q) + C x2^(2-q)| for x2 > 0."""
-    w = math.pow(x2, 1.0 - q)
+    w = x2 if q == 0.0 else math.pow(x2, 1.0 - q)
     return abs(A + B * w + C * w * x2)
 
 
@@ -118,7 +118,7 @@ def rate_bound(u, x1, xh, lo, hi, hbar, q):
     """
     _, m1, m2, m3 = m_coeffs(u, x1, hbar)
     a2 = m2 + m3 * xh
-    xq = math.pow(xh, q)
+    xq = 1.0 if q == 0.0 else math.pow(xh, q)
     A = m1 + a2 * xh
     B = xq * a2
     C = xq * m3
