@@ -24,7 +24,8 @@ x2lo(y_s)), and the set-up constants ``eps1``, ``eps2``, ``df2max`` in force;
 rows of ``plant``: ``min_eta1``, ``min_eta2`` (invariance of M_eta), ``mean_rate_true``,
 ``mean_rate_model``, ``max_rate_true``, ``t_max_rate_true`` (df2/dx2 along the solution).
 
-Window means are sample means on the uniform output grid; a test checks that dividing
+Window means are sample means on the uniform output grid (NaN for a window beyond the
+horizon); a test checks that dividing
 ``solver.dt_out`` by 10 changes them by < 1 %.
 """
 
@@ -67,6 +68,14 @@ def window(t: np.ndarray, ab: Sequence[float]) -> np.ndarray:
     """Mask of the samples in [a, b) (b = the horizon: [a, b])."""
     a, b = ab
     return (t >= a - 1e-9) & ((t < b - 1e-9) | (b >= t[-1] - 1e-9))
+
+
+def _mean(x: np.ndarray) -> float:
+    return float(x.mean()) if x.size else math.nan
+
+
+def _std(x: np.ndarray) -> float:
+    return float(x.std()) if x.size else math.nan
 
 
 def first_below(t: np.ndarray, e: np.ndarray, thr: float) -> float:
@@ -132,12 +141,12 @@ class APAMetrics:
         omega_series(p, u, y, xh2, omega)
         e_x2 = xh2 - x2_true
         name = obs.name
-        vals = {"bias_late": e[window(t, self.late)].mean(),
-                "std_late": e[window(t, self.late)].std(),
-                "rms_post": math.sqrt(np.mean(e[window(t, self.post)] ** 2))}
+        vals = {"bias_late": _mean(e[window(t, self.late)]),
+                "std_late": _std(e[window(t, self.late)]),
+                "rms_post": math.sqrt(_mean(e[window(t, self.post)] ** 2))}
         for k, ab in enumerate(self.steady, start=1):
-            vals[f"bias_w{k}"] = e[window(t, ab)].mean()
-            vals[f"std_w{k}"] = e[window(t, ab)].std()
+            vals[f"bias_w{k}"] = _mean(e[window(t, ab)])
+            vals[f"std_w{k}"] = _std(e[window(t, ab)])
         vals["peak_e_x2"] = np.abs(e_x2[window(t, self.transient)]).max()
         for thr in self.thresholds:
             vals[f"t1_{thr:g}"] = first_below(t, e, thr)
