@@ -6,8 +6,17 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hgo.plants.contois import (df2_dx2, df2max, eta2_of_x, f2, invariance_eps, rate_bound,
-                                reaction_rate, x2_high, x2_low)
+from hgo.plants.contois import (
+    df2_dx2,
+    df2max,
+    eta2_of_x,
+    f2,
+    invariance_eps,
+    rate_bound,
+    reaction_rate,
+    x2_high,
+    x2_low,
+)
 
 U_MIN, U_MAX = 0.01, 0.7
 

@@ -11,8 +11,12 @@ import pandas as pd
 import pytest
 
 from hgo.controllers.schedule import schedule_input
-from hgo.observers.homogeneous_dynamic import (correction, estimate, homogeneous_dynamic_hgo,
-                                               linear_gains)
+from hgo.observers.homogeneous_dynamic import (
+    correction,
+    estimate,
+    homogeneous_dynamic_hgo,
+    linear_gains,
+)
 from hgo.plants.contois import invariance_eps, rate_bound, x2_high, x2_low
 from hgo.runner import run
 
