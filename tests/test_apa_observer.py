@@ -134,3 +134,22 @@ def test_initial_gains_are_the_equilibrium_of_8(paper_run):
         q = 0.0 if obs.name == "omega1" else 0.9
         assert L[0] == pytest.approx(p[3] + p[4] / p[2] * rate_bound(u0, ys, xh, lo, hi, 0.8, q),
                                      rel=1e-12)
+
+
+@pytest.mark.parametrize(("preset", "hbar_o", "noise"), [
+    ("apa_fig1", 0.8, "gaussian"), ("apa_fig2", 0.8, "gaussian"), ("apa_nominal", 1.0, "none"),
+    ("apa_model", 0.8, "none"), ("apa_noise", 1.0, "gaussian"), ("apa_seeds", 0.8, "gaussian"),
+    ("apa_readings", 0.8, "gaussian")])
+def test_presets_build_the_scenarios_of_the_notes(preset, hbar_o, noise):
+    """Each preset composes and builds: the observers' hbar_o, the noise, and the constants
+    computed from hbar_o (eps2 = u_min hbar/(1 - u_min (1 - hbar)), df2max from the search)."""
+    from hgo.config import compose
+    from hgo.plants.contois import df2max
+    from hgo.runner import build
+
+    exp = build(compose([f"experiment={preset}"]))
+    assert exp.noise.kind == noise and exp.system.plant.p[0] == 1.0
+    for obs in exp.system.observers:
+        assert obs.p[9] == hbar_o
+        assert obs.p[11] == pytest.approx(0.01 * hbar_o / (1 - 0.01 * (1 - hbar_o)), rel=1e-14)
+        assert obs.p[12] == df2max(hbar_o, 0.01, 0.7)["df2max"]
