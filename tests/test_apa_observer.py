@@ -137,9 +137,8 @@ def test_initial_gains_are_the_equilibrium_of_8(paper_run):
 
 
 @pytest.mark.parametrize(("preset", "hbar_o", "noise"), [
-    ("apa_fig1", 0.8, "gaussian"), ("apa_fig2", 0.8, "gaussian"), ("apa_nominal", 1.0, "none"),
-    ("apa_model", 0.8, "none"), ("apa_noise", 1.0, "gaussian"), ("apa_seeds", 0.8, "gaussian"),
-    ("apa_readings", 0.8, "gaussian")])
+    ("apa_fig1", 0.8, "gaussian"), ("apa_nominal", 1.0, "none"), ("apa_model", 0.8, "none"),
+    ("apa_noise", 1.0, "gaussian"), ("apa_readings", 0.8, "gaussian")])
 def test_presets_build_the_scenarios_of_the_notes(preset, hbar_o, noise):
     """Each preset composes and builds: the observers' hbar_o, the noise, and the constants
     computed from hbar_o (eps2 = u_min hbar/(1 - u_min (1 - hbar)), df2max from the search)."""

@@ -16,6 +16,12 @@ near 0 the correction is linear with gains c_i L^i, c_i = prod_(j<=i) kappa_j el
 kappa_j = 2 where the power is 1 (d = 0, homogeneous) and 1 otherwise. The builder checks
 that lambda^n + c_1 lambda^(n-1) + ... + c_n is Hurwitz (n = 2: always).
 
+Signed powers w^r with r < 1 (not Lipschitz at 0) occur only in Omega2 (x2^(1-p), x^2s^p),
+always at saturated arguments >= x2lo(y_s) > 0, so the vector field is locally Lipschitz
+(kinks at the saturations); the adaptive integrators (DOP853 in the presets) resolve the
+kinks and the Hoelder point s = 0 by error control: tests/test_apa_numerics.py shows the
+convergence against a tighter integration.
+
 Instance (Section 3): the Contois bioreactor in the coordinates x = F(eta)
 (:mod:`hgo.plants.contois`), n = 2, f1 = -u y, f2 of (12) evaluated at the saturated
 (y_s, x^2s) with the model hbar_o:
