@@ -146,38 +146,46 @@ def fig1_noise_reflected() -> Measured:
 
 @claim(paper=PAPER, id="fig2_bias_from_hbar", where="Sec. 3.1, text on Fig. 2",
        statement="We observe in the three cases a bias which is due to the error in hbar",
-       verdict=REPRODUCED, runs=("experiment=apa_model", "experiment=apa_nominal",
-                                 "experiment=apa_fig2 seed=0,1,2"),
+       verdict=PARTLY, runs=("experiment=apa_model", "experiment=apa_nominal",
+                             "experiment=apa_fig2 seed=0,1,2", "experiment=apa_noise seed=0,1,2"),
        readings=(BASE, R_C3, R_C8, "C7: eta^ = F^{-1} of the saturated x^"))
 def fig2_bias_from_hbar() -> Measured:
+    """Noise-free, the bias is the hbar error's (model vs nominal). With noise, the noise alone
+    (apa_noise, no hbar error) also biases eta^2 through the saturations and F^{-1}: the part
+    due to hbar is the paper run's bias minus the noise-only run's (same seeds)."""
     model, nominal = run_rows(MODEL), run_rows(NOMINAL)
-    t, ser = _series(MODEL)
-    late = t >= 40.0
-    eta2_late = float(run_in_memory(MODEL).trajectory.z[late, 1].mean())
+    t = run_in_memory(MODEL).trajectory.t
+    eta2_late = float(run_in_memory(MODEL).trajectory.z[t >= 40.0, 1].mean())
     analytic = (0.8 - 1.0) * eta2_late
     nums: dict[str, float | str] = {"analytic bias (hbar_o - 1) mean eta2 on [40, 50]": analytic}
-    ok = True
+    noise_free, noisy = True, True
     for o in OBS:
         bm, bn = model[(o, "bias_late")], nominal[(o, "bias_late")]
-        bp = [run_rows(paper(s))[(o, "bias_late")] for s in SEEDS]
-        nums[f"{o} bias [40,50] model"] = bm
-        nums[f"{o} bias [40,50] nominal"] = bn
-        nums[f"{o} bias [40,50] paper seeds 0-2 mean"] = float(np.mean(bp))
+        bp = float(np.mean([run_rows(paper(s))[(o, "bias_late")] for s in SEEDS]))
+        bq = float(np.mean([run_rows(noise_only(s))[(o, "bias_late")] for s in SEEDS]))
+        nums[f"{o} bias [40,50] model (hbar_o = 0.8, no noise)"] = bm
+        nums[f"{o} bias [40,50] nominal (no error, no noise)"] = bn
+        nums[f"{o} bias [40,50] paper (hbar_o = 0.8, noise), seeds 0-2 mean"] = bp
+        nums[f"{o} bias [40,50] noise only (hbar_o = 1), seeds 0-2 mean"] = bq
+        nums[f"{o} paper - noise only"] = bp - bq
         for w in WINDOWS:
             nums[f"{o} bias {w} model"] = model[(o, f"bias_{w}")]
-            nums[f"{o} bias {w} nominal"] = nominal[(o, f"bias_{w}")]
-        ok &= bm < 0 and abs(bm) >= 0.5 * abs(analytic) and abs(bn) < 0.1 * abs(bm)
-        ok &= all(b < 0 for b in bp)
-    return Measured(holds=ok, numbers=nums,
-                    summary="with hbar_o = 0.8 every observer has a negative bias on [40, 50] "
-                            "close to (hbar_o - 1) eta2, with and without noise; without the "
-                            "hbar error (nominal) the bias is < 10 % of it")
+        noise_free &= bm < 0 and abs(bm) >= 0.5 * abs(analytic) and abs(bn) < 0.1 * abs(bm)
+        noisy &= bp - bq < 0 and abs(bp - bq) >= 0.5 * abs(analytic)
+    nums["noise-free: bias is the hbar error's, all three"] = str(noise_free)
+    nums["with noise: paper - noise-only >= half the analytic bias, all three"] = str(noisy)
+    return Measured(holds=noise_free, numbers=nums,
+                    summary="without noise every observer has the bias (hbar_o - 1) eta2 of the "
+                            "hbar error (none without it); with the paper's noise the noise alone "
+                            "biases eta^2 too, and for the df2max observer the paper run's bias "
+                            "is no larger than the noise-only run's (not due to hbar there)")
 
 
 @claim(paper=PAPER, id="fig2_bias_increases_with_rate", where="Sec. 3.1, text on Fig. 2",
        statement="[the bias] increases with the estimates of the local incremental rate "
                  "(|bias| df2max > Omega1 > Omega2)", verdict=PARTLY,
-       runs=("experiment=apa_fig2 seed=0,1,2", "experiment=apa_model"),
+       runs=("experiment=apa_fig2 seed=0,1,2", "experiment=apa_model",
+             "experiment=apa_noise seed=0,1,2"),
        readings=(BASE, R_C3, R_C8))
 def fig2_bias_increases_with_rate() -> Measured:
     nums: dict[str, float | str] = {}
@@ -192,10 +200,15 @@ def fig2_bias_increases_with_rate() -> Measured:
             if w == "late" and label != "model":
                 late_noisy &= _ordered(b)
     nums["order holds in every window, run"] = str(windows_all)
+    for s in SEEDS:  # the same order without the hbar error: it comes with the noise
+        rows = run_rows(noise_only(s))
+        nums[f"noise only (hbar_o = 1) seed {s} |bias| late"] = ", ".join(
+            f"{abs(rows[(o, 'bias_late')]):.4g}" for o in OBS)
     return Measured(holds=late_noisy, numbers=nums,
                     summary="with noise, |bias| on [40, 50] is ordered df2max > Omega1 > "
-                            "Omega2 for every seed; not in every steady window and run "
-                            "(see the order flag)")
+                            "Omega2 for every seed (as in the noise-only runs: the ordered part "
+                            "comes with the noise); not in every steady window, and without "
+                            "noise the three biases are nearly equal")
 
 
 def _pearson(a: list[float], b: list[float]) -> float:
