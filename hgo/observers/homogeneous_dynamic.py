@@ -54,10 +54,11 @@ from hgo.components import Observer
 from hgo.engine.jit import kernel_helper
 from hgo.plants.contois import (
     clip,
+    cubic,
     eta2_of_x,
-    f2,
     invariance_eps,
-    rate_bound,
+    m_coeffs,
+    rate_bound_m,
     to_x,
     x2_high,
     x2_low,
@@ -98,12 +99,22 @@ def gain_rate(L, phi1, phi2, phi3, omega):
 
 
 @kernel_helper
+def model_terms(kind, u, ys, xh2, q, hbar, eps2, dfmax):
+    """(f2(y_s, x^2s, u), Omega) of the observer: f2 of (12) and its bound df2max, Omega1 or
+    Omega2 at (u, y_s, x^2s), from one evaluation of the m_i and of x2lo, x2hi."""
+    lo, hi = x2_low(ys, eps2, hbar), x2_high(ys, hbar)
+    xs = clip(xh2, lo, hi)
+    m0, m1, m2, m3 = m_coeffs(u, ys, hbar)
+    if kind == 0:
+        return cubic(m0, m1, m2, m3, xs), dfmax
+    omega = rate_bound_m(m1, m2, m3, xs, lo, hi, 0.0 if kind == 1 else q)
+    return cubic(m0, m1, m2, m3, xs), omega
+
+
+@kernel_helper
 def omega_now(kind, u, ys, xh2, q, hbar, eps2, dfmax):
     """The bound Omega of the observer at (u, y_s, x^2s): df2max, Omega1 or Omega2."""
-    if kind == 0:
-        return dfmax
-    lo, hi = x2_low(ys, eps2, hbar), x2_high(ys, hbar)
-    return rate_bound(u, ys, clip(xh2, lo, hi), lo, hi, hbar, 0.0 if kind == 1 else q)
+    return model_terms(kind, u, ys, xh2, q, hbar, eps2, dfmax)[1]
 
 
 def f(t, z, d, y, u, p, dz):
@@ -113,12 +124,11 @@ def f(t, z, d, y, u, p, dz):
     hbar, eps1, eps2, dfmax = p[9], p[10], p[11], p[12]
     L = z[2]
     ys = clip(y[0], eps1, 1.0 - eps2)
-    xh2s = clip(z[1], x2_low(ys, eps2, hbar), x2_high(ys, hbar))
-    Lb = math.pow(L, b)
+    Lb = math.sqrt(L) if b == 0.5 else math.pow(L, b)
     correction((z[0] - ys) / Lb, L, Lb, q, ell, homogeneous, 2, dz)
+    f2s, omega = model_terms(kind, u[0], ys, z[1], q, hbar, eps2, dfmax)
     dz[0] = z[1] - u[0] * y[0] - dz[0]
-    dz[1] = f2(ys, xh2s, u[0], hbar) - dz[1]
-    omega = omega_now(kind, u[0], ys, z[1], q, hbar, eps2, dfmax)
+    dz[1] = f2s - dz[1]
     dz[2] = gain_rate(L, phi1, phi2, phi3, omega) if dynamic else 0.0
 
 

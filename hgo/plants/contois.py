@@ -86,10 +86,16 @@ def m_coeffs(u, x1, hbar):
 
 
 @kernel_helper
+def cubic(m0, m1, m2, m3, x2):
+    """m0 + m1 x2 + m2 x2^2 + m3 x2^3 (Horner)."""
+    return m0 + x2 * (m1 + x2 * (m2 + x2 * m3))
+
+
+@kernel_helper
 def f2(x1, x2, u, hbar):
     """f2 of (12) = m0 + m1 x2 + m2 x2^2 + m3 x2^3."""
     m0, m1, m2, m3 = m_coeffs(u, x1, hbar)
-    return m0 + x2 * (m1 + x2 * (m2 + x2 * m3))
+    return cubic(m0, m1, m2, m3, x2)
 
 
 @kernel_helper
@@ -117,6 +123,12 @@ def rate_bound(u, x1, xh, lo, hi, hbar, q):
     Needs 0 < lo <= xh, hi (xh is the saturated estimate).
     """
     _, m1, m2, m3 = m_coeffs(u, x1, hbar)
+    return rate_bound_m(m1, m2, m3, xh, lo, hi, q)
+
+
+@kernel_helper
+def rate_bound_m(m1, m2, m3, xh, lo, hi, q):
+    """:func:`rate_bound` from the coefficients m1, m2, m3 of (12) at (u, x1)."""
     a2 = m2 + m3 * xh
     xq = 1.0 if q == 0.0 else math.pow(xh, q)
     A = m1 + a2 * xh
