@@ -343,7 +343,10 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
                 system_rhs(t, z, d, m, P, w, k1)
                 fsal = True
             hh = min(h, h_max)
-            last = t + hh >= t_seg - tol
+            # a step within tol of the segment end takes the rest of the segment, unless the
+            # step is itself shorter than 100 tol: a rejected last step (a discontinuity at
+            # the segment end) must then shrink for real, not be re-planned to the same end
+            last = t + hh >= t_seg - min(tol, 0.01 * hh)
             if last:
                 hh = t_seg - t
             if not hh >= 1e-14 * max(1.0, abs(t)):  # (NaN fails every comparison)

@@ -1,0 +1,141 @@
+"""Andrieu, Praly & Astolfi scenario (apa_fig2): hgo against solve_ivp RK45 with a Python RHS.
+
+    python benchmarks/apa_bench.py [--quick]
+
+The problem: the Contois plant (11) and the three observers df2max, omega1, omega2 (11
+states), Gaussian noise std 0.05 held Delta = 0.01 (seed 0), input switches at 10, 20, 35,
+horizon T = 50 (``--quick``: T = 5), outputs at the noise instants t = k Delta on both sides
+(``solver.dt_out=0.01``). hgo runs the preset through its normal path
+(``hgo.runner.simulate_config``: build -> compiled kernel, DOP853 rtol 1e-8, atol 1e-10),
+timed after one compiling run, median of 3 runs before and 3 after the baseline. Both sides
+are single-threaded; the ratio is of CPU (process) times, robust on a shared machine, and
+the wall times are printed too. The baseline is
+``scipy.integrate.solve_ivp`` (RK45) with a Python right-hand side (the same component
+functions, called from Python), integrated segment by segment between noise samples, at
+the loosest of rtol = 1e-7, 1e-8, 1e-9, 1e-10 (atol = rtol / 100) whose error is <= hgo's
+in every state. Errors: per state, max over the samples t = k Delta of |z - z_ref|, z_ref
+from hgo at rtol 1e-12, atol 1e-14 (a tighter integration of the same problem); a state
+counts as matched when its solve_ivp error is <= max(hgo's, 1e-12) (the plant's states are
+at round-off in both). The printed error is the max over the 11 states.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from hgo.config import compose
+from hgo.runner import build, simulate_config
+
+PRESET = "experiment=apa_fig2"
+
+
+def _overrides(t_end: float, rtol: float = 1e-8, atol: float = 1e-10) -> list[str]:
+    return [PRESET, f"solver.t_end={t_end}", f"solver.rtol={rtol}", f"solver.atol={atol}",
+            "solver.dt_out=0.01", f"metrics.window={min(t_end, 10.0)}", "postprocess=none",
+            "figures={}"]
+
+
+def _clock() -> tuple[float, float]:
+    return time.perf_counter(), time.process_time()
+
+
+def _since(start: tuple[float, float]) -> tuple[float, float]:
+    """(wall, CPU) seconds since ``start``: both sides run single-threaded, so the CPU time
+    is the robust one on a shared machine (the wall time includes other users' slices)."""
+    wall, cpu = _clock()
+    return wall - start[0], cpu - start[1]
+
+
+def _hgo(t_end: float, rtol: float = 1e-8, atol: float = 1e-10, repeats: int = 1):
+    """The run and the (wall, CPU) times of ``repeats`` runs."""
+    cfg = compose(_overrides(t_end, rtol, atol))
+    times, run = [], None
+    for _ in range(repeats):
+        start = _clock()
+        run = simulate_config(cfg)
+        times.append(_since(start))
+    return run, times
+
+
+def _python_problem(t_end: float):
+    """Right-hand side, z0 (L(0) set as hgo's update does) and the held noise samples."""
+    exp = build(compose(_overrides(t_end)))
+    system = exp.system
+    plant, ctrl, observers = system.plant, system.controller, system.observers
+    noise = exp.noise.sample(t_end, 1, exp.seed)
+    slices = system.z_slices
+    z0 = system.z0()
+    d = [o.d0.copy() for o in observers]
+    y, u = np.empty(1), np.empty(1)
+
+    def signals(t, z, m):
+        y[0] = z[0] + m
+        ctrl.u(t, None, y, ctrl.p, u)
+
+    signals(0.0, z0, noise.samples[0, 0])
+    for o, (a, b), dk in zip(observers, slices[1:], d, strict=True):
+        o.update(0.0, z0[a:b], dk, y, u, o.p)
+
+    def rhs(t, z, m):
+        signals(t, z, m)
+        dz = np.empty_like(z)
+        plant.f(t, z[:2], u, plant.p, dz[:2])
+        for o, (a, b), dk in zip(observers, slices[1:], d, strict=True):
+            o.f(t, z[a:b], dk, y, u, o.p, dz[a:b])
+        return dz
+
+    return rhs, z0, noise
+
+
+def _solve_ivp(t_end: float, rtol: float):
+    """RK45 segment by segment between noise samples; samples at the segment ends."""
+    rhs, z, noise = _python_problem(t_end)
+    n_seg = int(round(t_end / noise.dt))
+    out = [z.copy()]
+    start = _clock()
+    for k in range(n_seg):
+        sol = solve_ivp(rhs, (k * noise.dt, (k + 1) * noise.dt), z, method="RK45",
+                        rtol=rtol, atol=rtol / 100, args=(noise.samples[k, 0],))
+        z = sol.y[:, -1]
+        out.append(z.copy())
+    return np.array(out), _since(start)
+
+
+def bench(quick: bool) -> dict:
+    """One row: hgo and solve_ivp times (wall and CPU), both errors, the ratio of CPU times
+    (hgo timed before and after solve_ivp, median of the 6 runs)."""
+    t_end = 5.0 if quick else 50.0
+    _hgo(t_end)  # compile (or load the cached kernel)
+    run, before = _hgo(t_end, repeats=3)
+    ref, _ = _hgo(t_end, rtol=1e-12, atol=1e-14)
+    z_ref = ref.trajectory.z
+    err_hgo = np.abs(run.trajectory.z - z_ref).max(axis=0)
+    for rtol in (1e-7, 1e-8, 1e-9, 1e-10):
+        z_ivp, t_ivp = _solve_ivp(t_end, rtol)
+        err_ivp = np.abs(z_ivp - z_ref).max(axis=0)
+        matched = bool(np.all(err_ivp <= np.maximum(err_hgo, 1e-12)))
+        if matched:
+            break
+    _, after = _hgo(t_end, repeats=3)
+    t_hgo = np.median(np.array(before + after), axis=0)
+    return {"problem": f"apa_fig2 (T = {t_end:g})", "hgo_s": float(t_hgo[1]),
+            "hgo_wall_s": float(t_hgo[0]), "hgo_err": float(err_hgo.max()),
+            "solve_ivp_s": t_ivp[1], "solve_ivp_wall_s": t_ivp[0], "solve_ivp_rtol": rtol,
+            "solve_ivp_err": float(err_ivp.max()), "ratio": t_ivp[1] / float(t_hgo[1]),
+            "ratio_wall": t_ivp[0] / float(t_hgo[0]), "equal_or_better": matched}
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="horizon 5 instead of 50")
+    row = bench(parser.parse_args().quick)
+    print(f"{row['problem']}: hgo {row['hgo_s']:.4f} s CPU ({row['hgo_wall_s']:.4f} s wall, "
+          f"err {row['hgo_err']:.2e}), solve_ivp RK45 rtol {row['solve_ivp_rtol']:g} "
+          f"{row['solve_ivp_s']:.2f} s CPU ({row['solve_ivp_wall_s']:.2f} s wall, err "
+          f"{row['solve_ivp_err']:.2e}), ratio {row['ratio']:.0f}x CPU "
+          f"({row['ratio_wall']:.0f}x wall), "
+          f"solve_ivp error <= hgo's in every state: {row['equal_or_better']}")

@@ -1,0 +1,50 @@
+"""Piecewise-constant open-loop input u(t), e.g. Andrieu, Praly & Astolfi, Section 3.1.
+
+    u(t) = values[0] for t < times[0], values[k] for times[k-1] <= t < times[k],
+           values[-1] for t >= times[-1]   (right-continuous at each switch).
+
+The input ignores every estimate. The integrators do not cut steps at the switches
+themselves: a step that crosses one (or ends on it, whose last stages then see the new
+value) has a local error of the order of the jump, which the error control of
+dopri5/dop853 rejects until the step is short enough; the switch is resolved to the
+tolerance (checked by a refinement test). Where the switches are multiples of the noise
+sample period, steps are cut there too.
+
+Parameters p = [n_switches, times (n), values (n + 1)].
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from hgo.components import Controller
+
+
+def u(t, xhat, y, p, u_out):
+    """u(t) from the schedule (right-continuous)."""
+    n = int(p[0])
+    k = 0
+    while k < n and t >= p[1 + k]:
+        k += 1
+    val = p[1 + n + k]
+    for i in range(u_out.shape[0]):
+        u_out[i] = val
+
+
+def schedule_input(times: Sequence[float], values: Sequence[float],
+                   name: str = "schedule") -> Controller:
+    """u(t) = values[k] between the increasing switch instants ``times``."""
+    times = [float(v) for v in times]
+    values = [float(v) for v in values]
+    if len(values) != len(times) + 1:
+        raise ValueError(f"controller.values must have len(times) + 1 = {len(times) + 1} "
+                         f"entries, got {len(values)}")
+    if not all(math.isfinite(v) for v in times + values):
+        raise ValueError("controller.times and controller.values must be finite")
+    if any(b <= a for a, b in zip(times, times[1:], strict=False)) or any(v <= 0 for v in times):
+        raise ValueError(f"controller.times must be > 0 and strictly increasing, got {times}")
+    p = np.array([len(times), *times, *values], float)
+    return Controller(name=name, p=p, u=u, observer=None)

@@ -1,0 +1,85 @@
+"""Figures of Andrieu, Praly & Astolfi (2007), Section 3.1, from one run of the paper's scenario.
+
+* :func:`fig1` "Approximations of the local incremental rates in the 3 cases": df2max (a
+  constant line), Omega1 along the Omega1 observer, Omega2 along the Omega2 observer and
+  |df2/dx2| along the true solution on a log axis (top); the signed df2/dx2 along the
+  solution (plant's hbar and the observers' hbar_o, reading C11) on a linear axis
+  (bottom: a log axis cannot show negative values).
+* :func:`fig2` "Estimation of eta2 with the 3 observers": three stacked panels, df2max
+  (top), Omega1 (middle), Omega2 (bottom), each with eta2 and eta^2 against time.
+
+Time is the paper's normalised time.
+"""
+
+from __future__ import annotations
+
+import matplotlib.pyplot as plt
+import numpy as np
+
+from hgo.figures import save_figure
+from hgo.postprocess.apa import RATE
+
+ORDER = ("df2max", "omega1", "omega2")
+COLOURS = {"df2max": "tab:red", "omega1": "tab:blue", "omega2": "tab:green"}
+LABELS = {"df2max": "df2max (constant gain)", "omega1": "Omega1 (updated gain)",
+          "omega2": "Omega2 (updated gain + homogeneous)"}
+
+
+def _series(result) -> dict:
+    return {s.entity: s for s in result.series}
+
+
+def _observers(result) -> list[str]:
+    names = [o.name for o in result.experiment.system.observers]
+    return [n for n in ORDER if n in names] + [n for n in names if n not in ORDER]
+
+
+def fig1(result, path) -> None:
+    """Rates along the run: Omega of each observer and df2/dx2 along the solution."""
+    t = result.trajectory.t
+    s = _series(result)
+    rate = s[RATE]
+    fig, (ax, ax2) = plt.subplots(2, 1, figsize=(8, 7), sharex=True,
+                                  gridspec_kw={"height_ratios": [2, 1]})
+    for name in _observers(result):
+        om = s[f"/observer/{name}/Omega"].values[:, 0]
+        ax.plot(t, om, color=COLOURS.get(name), lw=0.8,
+                label=f"{LABELS.get(name, name)} (mean {om.mean():.3g})")
+    true = rate.values[:, rate.names.index("df2dx2_true")]
+    ax.plot(t, np.abs(true), "k", lw=1.0, label=f"|df2/dx2| along the solution (mean of "
+            f"df2/dx2 {true.mean():.3g})")
+    ax.set_yscale("log")
+    ax.set_ylabel("local incremental rate")
+    ax.set_title("Fig. 1: approximations of the local incremental rates in the 3 cases")
+    ax.legend(fontsize=7, loc="best")
+    ax.grid(alpha=0.3, which="both")
+    for k, name in enumerate(rate.names):
+        ax2.plot(t, rate.values[:, k], color="k" if k == 0 else "tab:gray", lw=1.0,
+                 ls="-" if k == 0 else "--", label=name.replace("df2dx2_", "df2/dx2, hbar "))
+    ax2.axhline(0.0, color="k", lw=0.5)
+    ax2.set_ylabel("df2/dx2 (signed)")
+    ax2.set_xlabel("t")
+    ax2.legend(fontsize=7, loc="best")
+    ax2.grid(alpha=0.3)
+    save_figure(fig, path)
+
+
+def fig2(result, path) -> None:
+    """eta2 and eta^2 of each observer, one panel each (df2max, Omega1, Omega2)."""
+    t = result.trajectory.t
+    s = _series(result)
+    eta2 = s["/plant/x"].values[:, 1]
+    names = _observers(result)
+    fig, axes = plt.subplots(len(names), 1, figsize=(8, 2.6 * len(names)), sharex=True,
+                             squeeze=False)
+    for ax, name in zip(axes[:, 0], names, strict=True):
+        est = s[f"/observer/{name}/xhat"].values[:, 1]
+        ax.plot(t, est, color=COLOURS.get(name), lw=0.7, label=f"eta2^ ({LABELS.get(name, name)})")
+        ax.plot(t, eta2, "k", lw=1.2, label="eta2")
+        ax.set_ylabel("eta2")
+        ax.set_ylim(-0.05, 1.05)
+        ax.legend(fontsize=7, loc="upper right")
+        ax.grid(alpha=0.3)
+    axes[0, 0].set_title("Fig. 2: estimation of eta2 with the 3 observers")
+    axes[-1, 0].set_xlabel("t")
+    save_figure(fig, path)
