@@ -16,13 +16,16 @@ from __future__ import annotations
 import matplotlib.pyplot as plt
 import numpy as np
 
-from hgo.figures import save_figure
+from hgo.figures import legend_outside, panel_letters, save_figure
 from hgo.postprocess.apa import RATE
+from hgo.reproduce import PaperFigure
 
 ORDER = ("df2max", "omega1", "omega2")
 COLOURS = {"df2max": "tab:red", "omega1": "tab:blue", "omega2": "tab:green"}
-LABELS = {"df2max": "df2max (constant gain)", "omega1": "Omega1 (updated gain)",
-          "omega2": "Omega2 (updated gain + homogeneous)"}
+LABELS = {"df2max": r"$df_{2\max}$ (constant gain)", "omega1": r"$\Omega_1$ (updated gain)",
+          "omega2": r"$\Omega_2$ (updated gain + homogeneous)"}
+# the model is normalised (Section 3): time and concentrations are dimensionless
+T_LABEL = "$t$ (–, normalised time)"
 
 
 def _series(result) -> dict:
@@ -39,28 +42,31 @@ def fig1(result, path) -> None:
     t = result.trajectory.t
     s = _series(result)
     rate = s[RATE]
-    fig, (ax, ax2) = plt.subplots(2, 1, figsize=(8, 7), sharex=True,
+    fig, (ax, ax2) = plt.subplots(2, 1, figsize=(11, 7), sharex=True,
                                   gridspec_kw={"height_ratios": [2, 1]})
     for name in _observers(result):
         om = s[f"/observer/{name}/Omega"].values[:, 0]
         ax.plot(t, om, color=COLOURS.get(name), lw=0.8,
                 label=f"{LABELS.get(name, name)} (mean {om.mean():.3g})")
     true = rate.values[:, rate.names.index("df2dx2_true")]
-    ax.plot(t, np.abs(true), "k", lw=1.0, label=f"|df2/dx2| along the solution (mean of "
-            f"df2/dx2 {true.mean():.3g})")
+    ax.plot(t, np.abs(true), "k", lw=1.0, label=r"$|\partial f_2/\partial x_2|$ along the "
+            rf"solution (mean of $\partial f_2/\partial x_2$ {true.mean():.3g})")
     ax.set_yscale("log")
-    ax.set_ylabel("local incremental rate")
-    ax.set_title("Fig. 1: approximations of the local incremental rates in the 3 cases")
-    ax.legend(fontsize=7, loc="best")
+    ax.set_ylabel("local incremental rate (–)")
     ax.grid(alpha=0.3, which="both")
+    legend_outside(ax)
     for k, name in enumerate(rate.names):
+        hbar = name.replace("df2dx2_", "")
         ax2.plot(t, rate.values[:, k], color="k" if k == 0 else "tab:gray", lw=1.0,
-                 ls="-" if k == 0 else "--", label=name.replace("df2dx2_", "df2/dx2, hbar "))
+                 ls="-" if k == 0 else "--",
+                 label=rf"$\partial f_2/\partial x_2$, $\bar h$ {hbar}")
     ax2.axhline(0.0, color="k", lw=0.5)
-    ax2.set_ylabel("df2/dx2 (signed)")
-    ax2.set_xlabel("t")
-    ax2.legend(fontsize=7, loc="best")
-    ax2.grid(alpha=0.3)
+    ax2.set_ylabel(r"$\partial f_2/\partial x_2$ (signed, –)")
+    ax2.set_xlabel(T_LABEL)
+    legend_outside(ax2)
+    panel_letters((ax, ax2))
+    fig.suptitle("Andrieu, Praly & Astolfi Fig. 1: approximations of the local incremental "
+                 "rates in the 3 cases")
     save_figure(fig, path)
 
 
@@ -70,16 +76,30 @@ def fig2(result, path) -> None:
     s = _series(result)
     eta2 = s["/plant/x"].values[:, 1]
     names = _observers(result)
-    fig, axes = plt.subplots(len(names), 1, figsize=(8, 2.6 * len(names)), sharex=True,
+    fig, axes = plt.subplots(len(names), 1, figsize=(11, 2.6 * len(names)), sharex=True,
                              squeeze=False)
     for ax, name in zip(axes[:, 0], names, strict=True):
         est = s[f"/observer/{name}/xhat"].values[:, 1]
-        ax.plot(t, est, color=COLOURS.get(name), lw=0.7, label=f"eta2^ ({LABELS.get(name, name)})")
-        ax.plot(t, eta2, "k", lw=1.2, label="eta2")
-        ax.set_ylabel("eta2")
+        ax.plot(t, est, color=COLOURS.get(name), lw=0.7,
+                label=rf"$\hat\eta_2$, {LABELS.get(name, name)}")
+        ax.plot(t, eta2, "k", lw=1.2, label=r"$\eta_2$")
+        ax.set_ylabel(r"$\eta_2$ (–)")
         ax.set_ylim(-0.05, 1.05)
-        ax.legend(fontsize=7, loc="upper right")
-        ax.grid(alpha=0.3)
-    axes[0, 0].set_title("Fig. 2: estimation of eta2 with the 3 observers")
-    axes[-1, 0].set_xlabel("t")
+        legend_outside(ax)
+    panel_letters(axes[:, 0])
+    fig.suptitle(r"Andrieu, Praly & Astolfi Fig. 2: estimation of $\eta_2$ with the 3 "
+                 "observers")
+    axes[-1, 0].set_xlabel(T_LABEL)
     save_figure(fig, path)
+
+
+# --- what ``hgo reproduce`` runs ------------------------------------------------------------
+
+PAPER_FIGURES = [
+    PaperFigure("apa_fig2", {
+        "fig1": "Approximations of the local incremental rates in the 3 cases.",
+        "fig2": "Estimation of η2 with the 3 observers (constant gain from df2max, top; "
+                "adapted gain from Ω1, middle; updated gain from Ω2 with homogeneity "
+                "p = 0.9, bottom).",
+    }),
+]
