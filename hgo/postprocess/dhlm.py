@@ -15,6 +15,7 @@ rows (window W = [window_start, t_end], default [10, 20] s; "for good" times are
     run; NaN: never),
     ``t_end_peaking`` (|z - z_h| < ``peak_band`` for good, every entry), ``max_abs_zerr<k>_W``
     (bound: the quasi-static HGO lag, eps-scaled, see :func:`quasi_static_lag`),
+    ``hgo<i>_pole_slowest_re`` / ``_fastest_re`` (real parts of eig(a-bar_i)/eps),
     ``beta_measured`` = max_{t >= T(eps)} |eta|/eps of (13)-(15), ``T_eps``;
     states: ``max_abs_e<i>`` / ``t_max_abs_e<i>``, ``max_abs_e<i>_W``, ``rms_e<i>_W``,
     ``t_settle_e_<band>`` (|e| below band for good); parameters: ``theta_hat<k>_end``,
@@ -173,6 +174,10 @@ class DHLMMetrics:
             rows.append(("t_end_peaking", max(settle_time(t, zerr[:, j], self.peak_band)
                                               for j in range(nn)), None))
         h_abs = self._h_abs(system, traj, blk)
+        for i, g in enumerate(self._block_gains(blk)):
+            poles = np.linalg.eigvals(ac.hgo_matrix(g)) / eps
+            rows += [(f"hgo{i + 1}_pole_slowest_re", float(poles.real.max()), None),
+                     (f"hgo{i + 1}_pole_fastest_re", float(poles.real.min()), None)]
         T_eps = self.T_eps_factor * eps
         eta = self._eta(zerr, blk, eps)
         late = t >= T_eps
@@ -261,6 +266,17 @@ class DHLMMetrics:
         return hs
 
     @staticmethod
+    def _block_gains(blk: dict) -> list[np.ndarray]:
+        """gamma_i of every block with q_i > 1 (undoing Gamma_ij = gamma_ij / eps^j)."""
+        first = blk["first"].astype(int)
+        out = []
+        for f0 in np.unique(first):
+            qi = int(np.sum(first == f0))
+            if blk["direct"][f0] < 0.5:
+                out.append(blk["Gamma"][f0:f0 + qi] * blk["eps"] ** np.arange(1, qi + 1))
+        return out
+
+    @staticmethod
     def _lags(obs, blk: dict, eps: float, h_max: np.ndarray) -> np.ndarray:
         nn = int(blk["N"])
         first = blk["first"].astype(int)
@@ -295,10 +311,7 @@ class DHLMMetrics:
         psi = psi_rows(model, x, traj.u[:, 0])
         psi_max = float(np.max(np.linalg.norm(psi.reshape(len(psi), -1), axis=1)))
         h_max = float(np.max(h_abs))
-        first = blk["first"].astype(int)
-        q0 = int(np.sum(first == 0))
-        gains = blk["Gamma"][:q0] * blk["eps"] ** np.arange(1, q0 + 1)
-        beta_an = theory.beta_analytic(gains, h_max)
+        beta_an = max(theory.beta_analytic(g, h_max) for g in self._block_gains(blk))
         args = (chk.P, chk.Q, L, M, B, theta, blk["delta"], blk["sigma"], blk["eps"])
         thm = theory.theorem1(*args, beta_meas, psi_max, K_phi, K_psi)
         thm_an = theory.theorem1(*args, beta_an, psi_max, K_phi, K_psi)

@@ -240,8 +240,9 @@ def sigma_modification_residual() -> Measured:
     pe = V[-1] < 1e-12 * V[0]
     holds = bias[0.1] > bias[0.01] > bias[0.0] and pe
     return Measured(bool(holds), nums,
-                    "holds (narrower): sigma > 0 leaves a sigma-dependent bias (it grows with "
-                    "sigma; sigma = 0 gives the smallest errors); the 'no PE needed' part is not "
+                    "holds (narrower): sigma > 0 leaves a sigma-dependent bias of theta^2 "
+                    "(|mean - theta2| on W grows with sigma; theta^1's mean is not monotone in "
+                    "sigma); the 'no PE needed' part is not "
                     "tested by this example: with ideal z_h and sigma = 0, V -> 0 exponentially, "
                     "so u = 5(sin 2t + cos 3t) is persistently exciting")
 
