@@ -30,9 +30,10 @@ phi and psi are known functions of the class; they are compiled, chosen by ``mod
 (regressor order A1, so theta = (1/I, m g l/(2 I))).
 
 Continuous state z = [z_h (N) | x^ (n) | th^ (q) | w^ (1)]. Discrete state d
-(``disc_names``) = [peak |z_hk| (N), time of the peak (N), t_sat_first, t_sat_last]: the raw
-HGO peaks and when the saturation was active, sampled after every integration step (the
-adaptive step is short during peaking, so no output grid is involved); -1: never.
+(``disc_names``) = [t_sat_first, t_sat_last]: the first and last integration step end at
+which the saturation was active (-1: never); the adaptive step is short while it is (the
+HGO peaking), so no output grid is involved. (d changes only then: the integrator's
+first-same-as-last evaluation is kept on every other step.)
 
 Parameters p: a header (``HEAD``) then the row-major arrays A (n x n), B (n x m),
 E (n x r), H (N x n), L (n x N), M (m x N), C (p x n), C^+ (n x p), Bz2 (N x r: b_i2 rows),
@@ -150,53 +151,50 @@ def f(t, z, d, y, u, p, dz):
         for j in range(r):
             v += p[o_bz + k * r + j] * u[j]
         dz[k] = v
-    for i in range(n):  # (5) [+ (11)]
+    for i in range(n):  # (5): A x^ + E u, then + L (z_h^s - H x^)
         v = 0.0
         for j in range(n):
             v += p[o_a + i * n + j] * xh[j]
         for j in range(r):
             v += p[o_e + i * r + j] * u[j]
-        for k in range(nn):
-            v += p[o_l + i * nn + k] * innovation(k, zh, xh, y, p, o_h, o_s, o_out, o_dir)
-        for j in range(m):
-            bij = p[o_b + i * m + j]
-            if bij == 0.0:
-                continue
-            g = nonlinearity(j, xh, y, u, p, o_c, o_cp)
-            for k in range(q):
-                g += regressor(j, k, xh, y, u, p, o_c, o_cp) * th[k]
-            if omega_on > 0.5:
-                for k in range(nn):
-                    g += w_hat * p[o_m + j * nn + k] * innovation(k, zh, xh, y, p, o_h, o_s,
-                                                                  o_out, o_dir)
-            v += bij * g
         dz[nn + i] = v
-    mi_sq = 0.0
+    for k in range(nn):
+        inn = innovation(k, zh, xh, y, p, o_h, o_s, o_out, o_dir)
+        for i in range(n):
+            dz[nn + i] += p[o_l + i * nn + k] * inn
     for k in range(q):  # (7): th^' = delta psi^T M (z_h^s - H x^) - sigma th^
         dz[nn + n + k] = -sigma * th[k]
-    for j in range(m):
+    mi_sq = 0.0
+    for j in range(m):  # row j of M (z_h^s - H x^) and of psi: (5) + B g, (7), (11)
         mi = 0.0
         for k in range(nn):
             mi += p[o_m + j * nn + k] * innovation(k, zh, xh, y, p, o_h, o_s, o_out, o_dir)
         mi_sq += mi * mi
+        g = nonlinearity(j, xh, y, u, p, o_c, o_cp)
+        if omega_on > 0.5:
+            g += w_hat * mi  # (11), reconstructed injection w^ B M (z_h^s - H x^)
         for k in range(q):
-            dz[nn + n + k] += delta * regressor(j, k, xh, y, u, p, o_c, o_cp) * mi
+            psi = regressor(j, k, xh, y, u, p, o_c, o_cp)
+            g += psi * th[k]
+            dz[nn + n + k] += delta * psi * mi
+        for i in range(n):
+            dz[nn + i] += p[o_b + i * m + j] * g
     dz[nn + n + q] = mi_sq - sigma2 * w_hat if omega_on > 0.5 else 0.0
 
 
 def update(t, z, d, y, u, p):
-    """Peaks of |z_hk| and their times; first and last time the saturation was active."""
+    """First and last step end at which the saturation was active (some |z_hk| > S_k)."""
+    if p[12] > 0.5:
+        return
     nn = int(p[1])
-    o_s = _layout(p)[10]
+    offsets = _layout(p)
+    o_s, o_dir = offsets[10], offsets[14]
     for k in range(nn):
-        a = abs(z[k])
-        if a > d[k]:
-            d[k] = a
-            d[nn + k] = t
-        if p[12] < 0.5 and a > p[o_s + k]:
-            if d[2 * nn] < 0.0:
-                d[2 * nn] = t
-            d[2 * nn + 1] = t
+        if p[o_dir + k] < 0.5 and abs(z[k]) > p[o_s + k]:  # (q_i = 1: no HGO)
+            if d[0] < 0.0:
+                d[0] = t
+            d[1] = t
+            return
 
 
 def estimate(t, z, d, p, xhat):
@@ -360,10 +358,9 @@ def adaptive_cascade(name: str, A: Sequence, B: Sequence, C: Sequence, E: Sequen
     return Observer(
         name=name, state_names=zn + [f"xhat{i + 1}" for i in range(n)]
         + [f"theta_hat{k + 1}" for k in range(nq)] + ["omega_hat"],
-        disc_names=[f"peak_{s}" for s in zn] + [f"t_peak_{s}" for s in zn]
-        + ["t_sat_first", "t_sat_last"],
+        disc_names=["t_sat_first", "t_sat_last"],
         estimated_states=list(range(n)), z0=z0,
-        d0=np.concatenate([np.zeros(nn), -np.ones(nn), [-1.0, -1.0]]), p=p, f=f,
+        d0=np.array([-1.0, -1.0]), p=p, f=f,
         estimate=estimate, update=update, spectral_radius=rho,
         signals={"theta_hat": list(range(nn + n, nn + n + nq)), "omega_hat": [nn + n + nq]})
 

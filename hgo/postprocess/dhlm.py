@@ -168,8 +168,8 @@ class DHLMMetrics:
         zerr = z - (zs if ideal else zh)
         if not ideal:
             rows += self._peaks(system, k, zn, eps)
-        rows += [("t_sat_first", math.nan if d[2 * nn] < 0 else float(d[2 * nn]), None),
-                 ("t_sat_last", math.nan if d[2 * nn + 1] < 0 else float(d[2 * nn + 1]), None)]
+        rows += [("t_sat_first", math.nan if d[0] < 0 else float(d[0]), None),
+                 ("t_sat_last", math.nan if d[1] < 0 else float(d[1]), None)]
         if not ideal:
             rows.append(("t_end_peaking", max(settle_time(t, zerr[:, j], self.peak_band)
                                               for j in range(nn)), None))
