@@ -23,9 +23,12 @@ rows (window W = [window_start, t_end], default [10, 20] s; "for good" times are
     ``rms_rel_theta_err<k>_W``, ``t_settle_theta<k>_<pct>pct``,
     ``frac_W_theta<k>_within_<pct>pct``;
     theory (``theory: true``): ``r_star`` (best lambda_min(Q)/lambda_max(P) of (8)-(9) with
-    the observer's L, M), ``P11``, ``margin10`` (> 0: (10) holds), ``lmi28_rho`` (L, M
-    fixed) and ``lmi28_rho_free``, ``tau``, ``K0``..``K3``, ``R2`` (beta measured) and
-    ``R2_beta_analytic``, ``beta_analytic``, ``psi_max``, ``h_max``; and the D_R row
+    the observer's L, M; ``r_star_M_free``: M free too), ``P11``, ``margin10`` (> 0: (10)
+    holds with K_psi |theta|) and ``margin10_tight`` (with the Lipschitz constant of
+    x -> psi theta), ``lmi28_rho`` (L, M fixed) and ``lmi28_rho_free``, ``tau``,
+    ``K0``..``K3``, ``R2`` (beta measured) and ``R2_beta_analytic``, ``beta_analytic``,
+    ``psi_max`` (max |psi(x, u)| over the run), ``psi_max_bound`` = sqrt(1 + u_max^2),
+    ``u_max``, ``h_max``; and the D_R row
     ``max_V_after_T_eps`` with bound R^2 (``holds``: the run stays in D_R after T(eps)).
 
 The readings in force: ``psi_at`` of the observer (A2: K_psi = 0 under ``y``, the model's
@@ -72,6 +75,14 @@ def psi_rows(model: str, xa: np.ndarray, u: np.ndarray) -> np.ndarray:
     if model == "robot_arm":
         return np.stack([u, -np.sin(xa[:, 0])], axis=1)[:, None, :]
     raise ValueError(f"postprocess dhlm: no regressor for model '{model}'")
+
+
+def lipschitz_psi_theta(model: str, theta: np.ndarray) -> float:
+    """Lipschitz constant of x -> psi(x, u) theta (tighter than K_psi |theta|, A7);
+    robot_arm: psi theta = theta1 u - theta2 sin x1, so |theta2|."""
+    if model == "robot_arm":
+        return float(abs(theta[1]))
+    raise ValueError(f"postprocess dhlm: no Lipschitz constant for model '{model}'")
 
 
 def model_name(p: np.ndarray) -> str:
@@ -299,6 +310,7 @@ class DHLMMetrics:
         K_psi = K_psi_model if blk["psi_at"] > 0.5 else 0.0
         chk = theory.check_conditions(A, B, H, L, M)
         rows = [("r_star", chk.r_star, None),
+                ("r_star_M_free", theory.check_conditions(A, B, H, L).r_star, None),
                 ("max_re_eig_A_minus_LH", float(np.max(chk.eig_closed_loop.real)), None)]
         k28 = theory.lmi28(A, B, H, L, M)
         k28f = theory.lmi28(A, B, H)
@@ -306,10 +318,14 @@ class DHLMMetrics:
         if chk.P is None:
             return rows + [("margin10", math.nan, None)]
         nB = float(np.linalg.norm(B, 2))
+        tight = lipschitz_psi_theta(model, theta) if K_psi > 0 else 0.0
         rows += [("P11", float(chk.P[0, 0]), None),
-                 ("margin10", chk.margin10(nB, K_phi, K_psi * np.linalg.norm(theta)), None)]
+                 ("margin10", chk.margin10(nB, K_phi, K_psi * np.linalg.norm(theta)), None),
+                 ("margin10_tight", chk.margin10(nB, K_phi, tight), None)]
         psi = psi_rows(model, x, traj.u[:, 0])
         psi_max = float(np.max(np.linalg.norm(psi.reshape(len(psi), -1), axis=1)))
+        u_max = float(np.max(np.abs(traj.u)))
+        rows += [("u_max", u_max, None), ("psi_max_bound", float(np.hypot(1.0, u_max)), None)]
         h_max = float(np.max(h_abs))
         beta_an = max(theory.beta_analytic(g, h_max) for g in self._block_gains(blk))
         args = (chk.P, chk.Q, L, M, B, theta, blk["delta"], blk["sigma"], blk["eps"])
