@@ -57,3 +57,12 @@ def test_kernel_matches_plain_python_reference(compose, psi_at):
     ours = traj.z[:, :8]  # x, z_h, x^, theta^ (omega^ last, unused)
     scale = np.maximum(1.0, np.abs(ref.y.T).max(axis=0))
     assert np.max(np.abs(ours - ref.y.T) / scale) < 1e-6
+
+
+def test_ideal_mode_without_the_auxiliary_outputs_stops_at_t0(compose):
+    """hgo=ideal reads z = Hx from the plant's outputs; with the paper's plant (y = x1 only)
+    the run stops at t = 0 with a non-finite state instead of reading past y."""
+    cfg = compose(["experiment=dhlm_example", "observer.cascade.hgo=ideal", "solver.t_end=1.0",
+                   "metrics.window=0.5", "postprocess=none"])
+    traj = run_experiment(build(cfg))
+    assert traj.message == "non-finite state" and traj.t_stop == 0.0

@@ -23,7 +23,8 @@ notes ``shared/specs/dhlm.md``):
 * q_i = 1: no HGO for output i, z_hi = y_i directly.
 * ``hgo="ideal"``: diagnostic, not in the paper: z_h^s = H x read from the plant's outputs
   (the plant must output z = H x, e.g. ``plant.outputs: Hx`` of the robot arm); no HGO, no
-  saturation. A plant with fewer outputs makes the run fail at t = 0 (non-finite state).
+  saturation. A plant with fewer outputs (or fewer inputs than E has columns) makes the
+  run stop at t = 0 with "non-finite state" (:func:`_miswired`).
 
 phi and psi are known functions of the class; they are compiled, chosen by ``model``
 (:data:`MODELS`): ``robot_arm`` is Dimassi et al. (25) with phi = 0 and psi = [u, -sin x1]
@@ -130,8 +131,21 @@ def innovation(k, zh, xh, y, p, o_h, o_s, o_out, o_dir):
     return v
 
 
+@kernel_helper
+def _miswired(y, u, p):
+    """The plant gives fewer outputs (p, or N for ``hgo=ideal``) or inputs (r) than the
+    observer reads: the caller then sets a non-finite derivative (the run stops at t = 0
+    with "non-finite state") instead of reading past the end of y or u."""
+    need_y = int(p[1]) if p[12] > 0.5 else int(p[5])
+    return y.shape[0] < need_y or u.shape[0] < max(int(p[4]), 1)
+
+
 def f(t, z, d, y, u, p, dz):
     """Dimassi et al. (6) (HGO), (5) (state), (7) (parameters), (11) (w^, when enabled)."""
+    if _miswired(y, u, p):
+        for i in range(dz.shape[0]):
+            dz[i] = math.nan
+        return
     n, nn, m, q, r = int(p[0]), int(p[1]), int(p[2]), int(p[3]), int(p[4])
     delta, sigma, sigma2, omega_on, ideal = p[7], p[8], p[9], p[11], p[12]
     (o_a, o_b, o_e, o_h, o_l, o_m, o_c, o_cp, o_bz, o_g, o_s, o_out, o_first, o_last,
