@@ -134,8 +134,8 @@ def innovation(k, zh, xh, y, p, o_h, o_s, o_out, o_dir):
 @kernel_helper
 def _miswired(y, u, p):
     """The plant gives fewer outputs (p, or N for ``hgo=ideal``) or inputs (r) than the
-    observer reads: the caller then sets a non-finite derivative (the run stops at t = 0
-    with "non-finite state") instead of reading past the end of y or u."""
+    observer reads: ``update`` then makes the state non-finite (the run stops at t = 0
+    with "non-finite state") and ``f`` returns zeros, instead of reading past y or u."""
     need_y = int(p[1]) if p[12] > 0.5 else int(p[5])
     return y.shape[0] < need_y or u.shape[0] < max(int(p[4]), 1)
 
@@ -144,7 +144,7 @@ def f(t, z, d, y, u, p, dz):
     """Dimassi et al. (6) (HGO), (5) (state), (7) (parameters), (11) (w^, when enabled)."""
     if _miswired(y, u, p):
         for i in range(dz.shape[0]):
-            dz[i] = math.nan
+            dz[i] = 0.0
         return
     n, nn, m, q, r = int(p[0]), int(p[1]), int(p[2]), int(p[3]), int(p[4])
     delta, sigma, sigma2, omega_on, ideal = p[7], p[8], p[9], p[11], p[12]
@@ -198,6 +198,9 @@ def f(t, z, d, y, u, p, dz):
 
 def update(t, z, d, y, u, p):
     """First and last step end at which the saturation was active (some |z_hk| > S_k)."""
+    if _miswired(y, u, p):
+        z[0] = math.nan
+        return
     if p[12] > 0.5:
         return
     nn = int(p[1])
