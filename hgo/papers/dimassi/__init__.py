@@ -1,0 +1,1 @@
+"""Dimassi, Hadj Said, Loría & M'Sahli (STA 2019): HGO in cascade with an adaptive observer."""

@@ -1,0 +1,169 @@
+"""Figures of Dimassi et al. Sec. IV (Figs. 1-5) and an error panel, from one run.
+
+Each function takes a :class:`hgo.runner.RunResult` and a path and writes one PNG (t in s on
+every abscissa, implementation notes 9):
+
+* :func:`fig1`: z_12 = x2 (solid) and its HGO estimate z^_12 (dashed: the saturated z_h12^s
+  that the cascade uses, A13; dotted: the raw z_h12), y-range clipped, with an inset of the
+  peaking (re-simulated on a 10 us grid over the inset's span: the run's output grid is
+  too coarse for a peak that lasts ~3 ms);
+* :func:`fig2`, :func:`fig3`: x1, x^1 and x2, x^2 with an inset of the transient;
+* :func:`fig4`, :func:`fig5`: theta_1 = 1/I, theta^_1 and theta_2 = m g l/(2 I), theta^_2;
+* :func:`errors`: |e1|, |e2|, |theta~_i|/theta_i, V and R^2 on a log scale (not in the paper).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import matplotlib.pyplot as plt
+import numpy as np
+
+from hgo.engine.simulate import no_noise, simulate
+from hgo.figures import save_figure
+from hgo.observers import adaptive_cascade as ac
+
+INSET_HGO = 0.03  # s, Fig. 1 inset
+INSET_TRANSIENT = 1.0  # s, Figs. 2-5 insets
+
+
+def _cascade(result):
+    """(index, observer) of the first cascade observer of the run."""
+    for k, obs in enumerate(result.experiment.system.observers):
+        if obs.f is ac.f:
+            return k, obs
+    raise ValueError("figure: the run has no adaptive_cascade observer")
+
+
+def _series(result, entity: str) -> np.ndarray:
+    for s in result.series:
+        if s.entity == entity:
+            return s.values
+    raise ValueError(f"figure: no series {entity} (needs the dhlm_metrics post-processor)")
+
+
+def _theta(result) -> np.ndarray:
+    _, obs = _cascade(result)
+    return _series(result, f"/observer/{obs.name}/theta_error")
+
+
+def _panel(ax, t, curves, ylabel, ylim=None):
+    for values, style, label in curves:
+        ax.plot(t, values, style, lw=1.1, label=label)
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel(ylabel)
+    if ylim is not None:
+        ax.set_ylim(*ylim)
+    ax.grid(alpha=0.3)
+
+
+def _with_inset(path, title, t, curves, ylabel, ylim=None, span=INSET_TRANSIENT,
+                inset_t=None, inset_curves=None) -> None:
+    fig, ax = plt.subplots(figsize=(8, 4.2))
+    _panel(ax, t, curves, ylabel, ylim)
+    ax.legend(loc="upper right", fontsize=8)
+    ax.set_title(title, fontsize=10)
+    ins = ax.inset_axes([0.52, 0.08, 0.3, 0.38])
+    ti = t if inset_t is None else inset_t
+    sel = ti <= span
+    for values, style, _ in (curves if inset_curves is None else inset_curves):
+        ins.plot(ti[sel], values[sel], style, lw=0.9)
+    ins.set_xlim(0, span)
+    ins.tick_params(labelsize=7)
+    ins.grid(alpha=0.3)
+    save_figure(fig, path)
+
+
+def fine_start(result, span: float = INSET_HGO, dt: float = 1e-5):
+    """The same system re-simulated over [0, span] on a dt grid (same solver settings)."""
+    exp = result.experiment
+    solver = dataclasses.replace(exp.solver, t_end=span, dt_out=dt, window=0.0)
+    return simulate(exp.system, solver, no_noise(len(exp.system.plant.output_names)))
+
+
+def fig1(result, path) -> None:
+    """Fig. 1: z_12 = x2 and its estimate z^_12 by the HGO (6) (saturated, raw dotted)."""
+    t = result.trajectory.t
+    k, obs = _cascade(result)
+    x2 = result.trajectory.z[:, 1]
+    sat = _series(result, f"/observer/{obs.name}/hgo/saturated")[:, 1]
+    raw = _series(result, f"/observer/{obs.name}/hgo/raw")[:, 1]
+    fine = fine_start(result)
+    za = result.experiment.system.z_slices[k + 1][0]
+    s_level = ac.unpack(obs.p)["S"][1]
+    f_raw = fine.z[:, za + 1]
+    curves = [(x2, "k-", "z_12 = x_2"), (sat, "r--", "z^_12 (saturated, used by (5), (7))"),
+              (raw, "b:", "z_h12 raw")]
+    inset = [(fine.z[:, 1], "k-", ""), (np.clip(f_raw, -s_level, s_level), "r--", ""),
+             (f_raw, "b:", "")]
+    _with_inset(path, f"Dimassi et al. Fig. 1 - HGO (6), eps = {ac.unpack(obs.p)['eps']:g}, "
+                f"S = {s_level:g}; inset: peaking on a 10 us grid",
+                t, curves, "z_12, z^_12 [rad/s]", (-25, 25), INSET_HGO, fine.t, inset)
+
+
+def fig2(result, path) -> None:
+    """Fig. 2: x1 and its estimate x^1 by (5), (7)."""
+    t, z = result.trajectory.t, result.trajectory.z
+    xh = result.trajectory.xh
+    _with_inset(path, "Dimassi et al. Fig. 2 - x_1 and x^_1 by (5), (7)", t,
+                [(z[:, 0], "k-", "x_1"), (xh[:, 0], "r--", "x^_1")], "x_1 [rad]")
+
+
+def fig3(result, path) -> None:
+    """Fig. 3: x2 and its estimate x^2 by (5), (7)."""
+    t, z = result.trajectory.t, result.trajectory.z
+    xh = result.trajectory.xh
+    _with_inset(path, "Dimassi et al. Fig. 3 - x_2 and x^_2 by (5), (7)", t,
+                [(z[:, 1], "k-", "x_2"), (xh[:, 1], "r--", "x^_2")], "x_2 [rad/s]", (-25, 25))
+
+
+def _theta_fig(result, path, i: int, label: str, unit: str, ylim) -> None:
+    t = result.trajectory.t
+    theta = np.full_like(t, _true(result)[i])
+    th = theta + _theta(result)[:, i]
+    _with_inset(path, f"Dimassi et al. Fig. {4 + i} - {label} and its estimate", t,
+                [(theta, "k-", f"{label} = {theta[0]:g}"), (th, "r--", f"{label}^")],
+                f"{label} [{unit}]", ylim)
+
+
+def fig4(result, path) -> None:
+    """Fig. 4: theta_1 = 1/I and theta^_1."""
+    _theta_fig(result, path, 0, "theta_1", "1/(kg m^2)", (-4, 4))
+
+
+def fig5(result, path) -> None:
+    """Fig. 5: theta_2 = m g l / (2 I) and theta^_2."""
+    _theta_fig(result, path, 1, "theta_2", "s^-2", (-9, 14))
+
+
+def errors(result, path) -> None:
+    """|e1|, |e2|, |theta~_i|/theta_i, V (18) and R^2 (23) on a log scale."""
+    t = result.trajectory.t
+    _, obs = _cascade(result)
+    e = result.trajectory.xh - result.trajectory.z[:, :2]
+    th = np.abs(_theta(result))
+    theta = np.abs(_true(result))
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+    a1.semilogy(t, np.abs(e[:, 0]), label="|e_1| [rad]")
+    a1.semilogy(t, np.abs(e[:, 1]), label="|e_2| [rad/s]")
+    for i in range(th.shape[1]):
+        a1.semilogy(t, th[:, i] / theta[i], label=f"|theta~_{i + 1}|/theta_{i + 1}")
+    a1.legend(fontsize=8)
+    a1.grid(alpha=0.3)
+    lyap = _series(result, f"/observer/{obs.name}/lyapunov")
+    a2.semilogy(t, lyap[:, 0], label="V (18)")
+    a2.semilogy(t, lyap[:, 1], "k--", label="R^2 (23)")
+    a2.set_xlabel("t [s]")
+    a2.legend(fontsize=8)
+    a2.grid(alpha=0.3)
+    a1.set_title("Dimassi et al. - errors, V and the D_R level (not a paper figure)", fontsize=10)
+    save_figure(fig, path)
+
+
+def _true(result) -> np.ndarray:
+    """theta from th^ and th^ - theta at t = 0."""
+    k, obs = _cascade(result)
+    za = result.experiment.system.z_slices[k + 1][0]
+    blk = ac.unpack(obs.p)
+    a = za + int(blk["N"]) + int(blk["n"])
+    return result.trajectory.z[0, a:a + int(blk["q"])] - _theta(result)[0]
