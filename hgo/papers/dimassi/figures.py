@@ -20,8 +20,9 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from hgo.engine.simulate import no_noise, simulate
-from hgo.figures import save_figure
+from hgo.figures import legend_outside, panel_letters, save_figure
 from hgo.observers import adaptive_cascade as ac
+from hgo.reproduce import PaperFigure
 
 INSET_HGO = 0.03  # s, Fig. 1 inset
 INSET_TRANSIENT = 1.0  # s, Figs. 2-5 insets
@@ -50,7 +51,7 @@ def _theta(result) -> np.ndarray:
 def _panel(ax, t, curves, ylabel, ylim=None):
     for values, style, label in curves:
         ax.plot(t, values, style, lw=1.1, label=label)
-    ax.set_xlabel("t [s]")
+    ax.set_xlabel("$t$ (s)")
     ax.set_ylabel(ylabel)
     if ylim is not None:
         ax.set_ylim(*ylim)
@@ -59,10 +60,10 @@ def _panel(ax, t, curves, ylabel, ylim=None):
 
 def _with_inset(path, title, t, curves, ylabel, ylim=None, span=INSET_TRANSIENT,
                 inset_t=None, inset_curves=None) -> None:
-    fig, ax = plt.subplots(figsize=(8, 4.2))
+    fig, ax = plt.subplots(figsize=(10, 4.2))
     _panel(ax, t, curves, ylabel, ylim)
-    ax.legend(loc="upper right", fontsize=8)
-    ax.set_title(title, fontsize=10)
+    legend_outside(ax)
+    ax.set_title(title)
     ins = ax.inset_axes([0.52, 0.08, 0.3, 0.38])
     ti = t if inset_t is None else inset_t
     sel = ti <= span
@@ -92,48 +93,53 @@ def fig1(result, path) -> None:
     za = result.experiment.system.z_slices[k + 1][0]
     s_level = ac.unpack(obs.p)["S"][1]
     f_raw = fine.z[:, za + 1]
-    curves = [(x2, "k-", "z_12 = x_2"), (sat, "r--", "z^_12 (saturated, used by (5), (7))"),
-              (raw, "b:", "z_h12 raw")]
+    curves = [(x2, "k-", "$z_{12} = x_2$"),
+              (sat, "r--", r"$\hat z_{12}$ (saturated, used by (5), (7))"),
+              (raw, "b:", r"$\hat z_{12}$ raw")]
     inset = [(fine.z[:, 1], "k-", ""), (np.clip(f_raw, -s_level, s_level), "r--", ""),
              (f_raw, "b:", "")]
-    _with_inset(path, f"Dimassi et al. Fig. 1 - HGO (6), eps = {ac.unpack(obs.p)['eps']:g}, "
-                f"S = {s_level:g}; inset: peaking on a 10 us grid",
-                t, curves, "z_12, z^_12 [rad/s]", (-25, 25), INSET_HGO, fine.t, inset)
+    _with_inset(path, rf"Dimassi et al. Fig. 1 - HGO (6), $\varepsilon = "
+                f"{ac.unpack(obs.p)['eps']:g}$, $S = {s_level:g}$; inset: peaking on a "
+                r"10 $\mu$s grid",
+                t, curves, r"$z_{12}$, $\hat z_{12}$ (rad/s)", (-25, 25), INSET_HGO, fine.t,
+                inset)
 
 
 def fig2(result, path) -> None:
     """Fig. 2: x1 and its estimate x^1 by (5), (7)."""
     t, z = result.trajectory.t, result.trajectory.z
     xh = result.trajectory.xh
-    _with_inset(path, "Dimassi et al. Fig. 2 - x_1 and x^_1 by (5), (7)", t,
-                [(z[:, 0], "k-", "x_1"), (xh[:, 0], "r--", "x^_1")], "x_1 [rad]")
+    _with_inset(path, r"Dimassi et al. Fig. 2 - $x_1$ and $\hat x_1$ by (5), (7)", t,
+                [(z[:, 0], "k-", "$x_1$"), (xh[:, 0], "r--", r"$\hat x_1$")], "$x_1$ (rad)")
 
 
 def fig3(result, path) -> None:
     """Fig. 3: x2 and its estimate x^2 by (5), (7)."""
     t, z = result.trajectory.t, result.trajectory.z
     xh = result.trajectory.xh
-    _with_inset(path, "Dimassi et al. Fig. 3 - x_2 and x^_2 by (5), (7)", t,
-                [(z[:, 1], "k-", "x_2"), (xh[:, 1], "r--", "x^_2")], "x_2 [rad/s]", (-25, 25))
+    _with_inset(path, r"Dimassi et al. Fig. 3 - $x_2$ and $\hat x_2$ by (5), (7)", t,
+                [(z[:, 1], "k-", "$x_2$"), (xh[:, 1], "r--", r"$\hat x_2$")], "$x_2$ (rad/s)",
+                (-25, 25))
 
 
 def _theta_fig(result, path, i: int, label: str, unit: str, ylim) -> None:
     t = result.trajectory.t
     theta = np.full_like(t, _true(result)[i])
     th = theta + _theta(result)[:, i]
-    _with_inset(path, f"Dimassi et al. Fig. {4 + i} - {label} and its estimate", t,
-                [(theta, "k-", f"{label} = {theta[0]:g}"), (th, "r--", f"{label}^")],
-                f"{label} [{unit}]", ylim)
+    sym, est = rf"$\theta_{i + 1}$", rf"$\hat\theta_{i + 1}$"
+    _with_inset(path, f"Dimassi et al. Fig. {4 + i} - {sym} and its estimate", t,
+                [(theta, "k-", f"{sym} = {theta[0]:g}"), (th, "r--", est)],
+                f"{sym} ({unit})", ylim)
 
 
 def fig4(result, path) -> None:
     """Fig. 4: theta_1 = 1/I and theta^_1."""
-    _theta_fig(result, path, 0, "theta_1", "1/(kg m^2)", (-4, 4))
+    _theta_fig(result, path, 0, "theta_1", r"kg$^{-1}$ m$^{-2}$", (-4, 4))
 
 
 def fig5(result, path) -> None:
     """Fig. 5: theta_2 = m g l / (2 I) and theta^_2."""
-    _theta_fig(result, path, 1, "theta_2", "s^-2", (-9, 14))
+    _theta_fig(result, path, 1, "theta_2", r"s$^{-2}$", (-9, 14))
 
 
 def errors(result, path) -> None:
@@ -143,20 +149,22 @@ def errors(result, path) -> None:
     e = result.trajectory.xh - result.trajectory.z[:, :2]
     th = np.abs(_theta(result))
     theta = np.abs(_true(result))
-    fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
-    a1.semilogy(t, np.abs(e[:, 0]), label="|e_1| [rad]")
-    a1.semilogy(t, np.abs(e[:, 1]), label="|e_2| [rad/s]")
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
+    a1.semilogy(t, np.abs(e[:, 0]), label="$|e_1|$ (rad)")
+    a1.semilogy(t, np.abs(e[:, 1]), label="$|e_2|$ (rad/s)")
     for i in range(th.shape[1]):
-        a1.semilogy(t, th[:, i] / theta[i], label=f"|theta~_{i + 1}|/theta_{i + 1}")
-    a1.legend(fontsize=8)
-    a1.grid(alpha=0.3)
+        a1.semilogy(t, th[:, i] / theta[i],
+                    label=rf"$|\tilde\theta_{i + 1}|/\theta_{i + 1}$ (–)")
+    a1.set_ylabel("errors")
+    legend_outside(a1)
     lyap = _series(result, f"/observer/{obs.name}/lyapunov")
-    a2.semilogy(t, lyap[:, 0], label="V (18)")
-    a2.semilogy(t, lyap[:, 1], "k--", label="R^2 (23)")
-    a2.set_xlabel("t [s]")
-    a2.legend(fontsize=8)
-    a2.grid(alpha=0.3)
-    a1.set_title("Dimassi et al. - errors, V and the D_R level (not a paper figure)", fontsize=10)
+    a2.semilogy(t, lyap[:, 0], label="$V$ (18)")
+    a2.semilogy(t, lyap[:, 1], "k--", label="$R^2$ (23)")
+    a2.set_ylabel("$V$, $R^2$ (–)")
+    a2.set_xlabel("$t$ (s)")
+    legend_outside(a2)
+    panel_letters((a1, a2))
+    a1.set_title(r"Dimassi et al. - errors, $V$ and the $D_R$ level (not a paper figure)")
     save_figure(fig, path)
 
 
@@ -167,3 +175,19 @@ def _true(result) -> np.ndarray:
     blk = ac.unpack(obs.p)
     a = za + int(blk["N"]) + int(blk["n"])
     return result.trajectory.z[0, a:a + int(blk["q"])] - _theta(result)[0]
+
+
+# --- what ``hgo reproduce`` runs ------------------------------------------------------------
+
+PAPER_FIGURES = [
+    PaperFigure("dhlm_example", {
+        "fig1": "Evolution of the auxiliary output z12 and its estimate ẑ12 by the high gain "
+                "observer (6).",
+        "fig2": "Evolution of the state x1 and its estimate x̂1 by the adaptive observer (5) "
+                "and adaptation law (7).",
+        "fig3": "Evolution of the state x2 and its estimate x̂2 by the adaptive observer (5) "
+                "and adaptation law (7).",
+        "fig4": "The unknown parameter θ1 and its estimate θ̂1.",
+        "fig5": "The unknown parameter θ2 and its estimate θ̂2.",
+    }),
+]
