@@ -78,10 +78,10 @@ def code_fingerprint() -> str:
 
 def job_key(overrides: tuple[str, ...], fingerprint: str) -> str:
     """Hash of the composed config of ``overrides`` and the code fingerprint."""
-    from hgo.config import compose
+    from hgo.claims import compose_cached
     from hgo.runner import job_config_yaml
 
-    text = job_config_yaml(compose(list(overrides)))
+    text = job_config_yaml(compose_cached(tuple(overrides)))
     return hashlib.sha256((text + fingerprint).encode()).hexdigest()[:16]
 
 
@@ -98,14 +98,14 @@ def run_job(overrides: tuple[str, ...], job_dir: str, key: str) -> dict:
     """One figure job into ``job_dir`` (Hydra's ``.hydra/`` files written too)."""
     import yaml
 
-    from hgo.config import compose
+    from hgo.claims import compose_cached
     from hgo.runner import job_config_yaml, run
 
     _silence_logs()
     out = Path(job_dir)
     (out / ".hydra").mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    cfg = compose(list(overrides), out)
+    cfg = compose_cached(tuple(overrides))
     (out / ".hydra" / "config.yaml").write_text(job_config_yaml(cfg))
     (out / ".hydra" / "overrides.yaml").write_text(yaml.safe_dump(list(overrides[1:])))
     status = "ok"
