@@ -3,6 +3,8 @@
     python benchmarks/run.py           # full run (~2 min here, < 10 min on 2 cores)
     python benchmarks/run.py --quick   # reduced run (< 60 s after compilation)
     python benchmarks/run.py --only grid,recording,memory   # a subset (see --help)
+    python benchmarks/run.py --only apa,dhlm,moreno         # the papers' rows against solve_ivp
+    python benchmarks/run.py --only reproduce,startup       # whole-process rows
 
 Times are medians of >= 3 runs after compilation (CPU-bound; wall clock), ratios are
 taken inside the same run. Prints the tables and ends with one line
@@ -12,6 +14,7 @@ taken inside the same run. Prints the tables and ends with one line
 from __future__ import annotations
 
 import argparse
+import importlib
 import os
 import subprocess
 import sys
@@ -51,6 +54,8 @@ SWEEP_ROWS = ("grid", "recording", "memory", "joblib")  # sections of sweeps_ben
 # repetitions of the millisecond runs of hgo and the hand kernels (medians): their
 # distribution here has a long tail (8-13 ms for one 8 ms run), 5 samples are not enough
 FAST_REPS = 15
+# the papers' benchmark modules (benchmarks/<name>_bench.py) and the key of their speedup
+PAPER_ROWS = {"apa": "ratio", "dhlm": "ratio", "moreno": "ratio_dop853"}
 
 
 def median_time(fn, reps: int) -> tuple[float, object]:
@@ -193,16 +198,23 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="reduced run (< 60 s)")
     ap.add_argument("--only", help="comma-separated subset: core (the issue-5 tables), "
                     "sweeps (all of sweeps_bench.py) or its rows grid, recording, memory, "
-                    "joblib; default: core and sweeps")
+                    "joblib; the papers' rows apa, dhlm, moreno; reproduce, startup (whole "
+                    "processes); default: core, sweeps, apa, dhlm, moreno")
     args = ap.parse_args()
     quick = args.quick
-    only = set(args.only.split(",")) if args.only else {"core", "sweeps"}
+    only = set(args.only.split(",")) if args.only else {"core", "sweeps", *PAPER_ROWS}
     rows = only & set(SWEEP_ROWS)
     if "sweeps" in only or rows:
         import sweeps_bench
 
         sweeps = sweeps_bench.bench(quick, None if "sweeps" in only else rows)
         print("\nsweeps: " + " ".join(f"{k}={v:.3g}" for k, v in sweeps.items()))
+    for name in sorted(only & set(PAPER_ROWS)):
+        row = importlib.import_module(f"{name}_bench").bench(quick)
+        print(f"\n{name}: {row}\n{name}: speedup_vs_solve_ivp={row[PAPER_ROWS[name]]:.0f}")
+    for name in sorted(only & {"reproduce", "startup"}):
+        subprocess.run([sys.executable, str(Path(__file__).with_name(f"{name}_bench.py"))],
+                       check=True)
     if "core" not in only:
         return
     reps = 3 if quick else 5

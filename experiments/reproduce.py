@@ -1,0 +1,9 @@
+"""Every paper's figures and claims, one report: ``python experiments/reproduce.py [paper ...]
+[--jobs N]``, the same as ``hgo reproduce`` (see :mod:`hgo.reproduce`)."""
+
+import sys
+
+from hgo.reproduce import main
+
+if __name__ == "__main__":
+    raise SystemExit(main(sys.argv[1:]))
