@@ -1,4 +1,5 @@
-"""Tests of hgo.papers.sanfelice_praly (theory, bounds): Sanfelice & Praly (8)-(10) checks/design and the bounds (11)-(15)."""
+"""Tests of hgo.papers.sanfelice_praly (theory, bounds): Sanfelice & Praly (8)-(10) checks
+and design, and the bounds (11)-(15)."""
 
 from __future__ import annotations
 
