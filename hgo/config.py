@@ -126,7 +126,9 @@ def register_configs() -> None:
     cs.store(group="schema/ensemble", name="ensemble", node=EnsembleConf)
     cs.store(group="schema/recording", name="recording", node=RecordingConf)
     for module in paper_modules("config"):  # each paper's own schemas
-        module.register_configs()
+        for path, node in module.SCHEMAS.items():
+            group, name = path.rsplit("/", 1)
+            cs.store(group=f"schema/{group}", name=name, node=node)
 
 
 def conf_dir() -> Path:

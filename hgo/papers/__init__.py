@@ -1,8 +1,9 @@
 """What reproducing one paper needs, one package per paper (``hgo/papers/<paper>/``).
 
-A paper package may hold ``config.py`` (its structured-config schemas, stored by a
-``register_configs()`` function), ``claims.py`` (its claims, see :mod:`hgo.claims`),
-``figures.py`` and its theory / design code. Packages are discovered: adding a paper
+A paper package may hold ``config.py`` (its structured-config schemas in a ``SCHEMAS``
+mapping ``"<group>/<name>"`` -> dataclass, stored by :func:`hgo.config.register_configs`),
+``claims.py`` (its claims, see :mod:`hgo.claims`), ``figures.py`` and its theory / design
+code. Packages are discovered: adding a paper
 changes no file outside its own package, ``conf/`` and ``tests/``.
 """
 

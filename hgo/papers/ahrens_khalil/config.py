@@ -1,6 +1,6 @@
 """Structured-config schemas of the Ahrens & Khalil (2008) components.
 
-Stored by :func:`register_configs` (called from :func:`hgo.config.register_configs`):
+Stored from :data:`SCHEMAS` by :func:`hgo.config.register_configs`:
 
 * ``schema/plant/dc_motor``: the field-controlled DC motor (38)-(39)
   (:func:`hgo.plants.dc_motor.dc_motor_plant`);
@@ -23,8 +23,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-
-from hydra.core.config_store import ConfigStore
 
 
 @dataclass
@@ -97,12 +95,11 @@ class AKMetricsConf:
     late_window: float = 1.0
 
 
-def register_configs() -> None:
-    """Store the schemas above in Hydra's ConfigStore (idempotent)."""
-    cs = ConfigStore.instance()
-    cs.store(group="schema/plant", name="dc_motor", node=DCMotorPlantConf)
-    cs.store(group="schema/observer", name="switched_hgo", node=SwitchedHGOConf)
-    cs.store(group="schema/controller", name="dc_motor_speed", node=DCMotorSpeedConf)
-    cs.store(group="schema/controller", name="open_loop", node=OpenLoopConf)
-    cs.store(group="schema/postprocess", name="ak_metrics", node=AKMetricsConf)
-
+# what hgo.config.register_configs stores: "<group>/<name>" -> schema, under schema/
+SCHEMAS = {
+    "plant/dc_motor": DCMotorPlantConf,
+    "observer/switched_hgo": SwitchedHGOConf,
+    "controller/dc_motor_speed": DCMotorSpeedConf,
+    "controller/open_loop": OpenLoopConf,
+    "postprocess/ak_metrics": AKMetricsConf,
+}

@@ -1,6 +1,6 @@
 """Structured-config schemas of the Andrieu, Praly & Astolfi (2007) components.
 
-Stored by :func:`register_configs` (called from :func:`hgo.config.register_configs`):
+Stored from :data:`SCHEMAS` by :func:`hgo.config.register_configs`:
 
 * ``schema/plant/contois``: the Contois bioreactor (11) (:func:`hgo.plants.contois.contois_plant`);
 * ``schema/observer/homogeneous_dynamic_hgo``: observer (7)-(8) on the form (12)
@@ -17,8 +17,6 @@ C1-C18 of ``shared/specs/apa.md`` (named next to each key).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-
-from hydra.core.config_store import ConfigStore
 
 
 @dataclass
@@ -75,11 +73,10 @@ class APAMetricsConf:
     thresholds: list[float] = field(default_factory=lambda: [0.1, 0.01])
 
 
-def register_configs() -> None:
-    """Store the schemas above in Hydra's ConfigStore (idempotent)."""
-    cs = ConfigStore.instance()
-    cs.store(group="schema/plant", name="contois", node=ContoisPlantConf)
-    cs.store(group="schema/observer", name="homogeneous_dynamic_hgo",
-             node=HomogeneousDynamicHGOConf)
-    cs.store(group="schema/controller", name="schedule", node=ScheduleConf)
-    cs.store(group="schema/postprocess", name="apa_metrics", node=APAMetricsConf)
+# what hgo.config.register_configs stores: "<group>/<name>" -> schema, under schema/
+SCHEMAS = {
+    "plant/contois": ContoisPlantConf,
+    "observer/homogeneous_dynamic_hgo": HomogeneousDynamicHGOConf,
+    "controller/schedule": ScheduleConf,
+    "postprocess/apa_metrics": APAMetricsConf,
+}

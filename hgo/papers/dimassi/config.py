@@ -1,6 +1,6 @@
 """Structured-config schemas of the Dimassi et al. (STA 2019) components.
 
-Stored by :func:`register_configs` (called from :func:`hgo.config.register_configs`):
+Stored from :data:`SCHEMAS` by :func:`hgo.config.register_configs`:
 
 * ``schema/plant/robot_arm``: the arm (24)-(25) (:func:`hgo.plants.robot_arm.robot_arm_plant`);
 * ``schema/controller/sinusoids``: u = sum a_k sin(w_k t) + b_k cos(w_k t)
@@ -17,8 +17,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from typing import Any
-
-from hydra.core.config_store import ConfigStore
 
 
 @dataclass
@@ -87,10 +85,10 @@ class DHLMMetricsConf:
     beta: str = "measured"
 
 
-def register_configs() -> None:
-    """Store the schemas above in Hydra's ConfigStore (idempotent)."""
-    cs = ConfigStore.instance()
-    cs.store(group="schema/plant", name="robot_arm", node=RobotArmPlantConf)
-    cs.store(group="schema/controller", name="sinusoids", node=SinusoidsConf)
-    cs.store(group="schema/observer", name="adaptive_cascade", node=AdaptiveCascadeConf)
-    cs.store(group="schema/postprocess", name="dhlm_metrics", node=DHLMMetricsConf)
+# what hgo.config.register_configs stores: "<group>/<name>" -> schema, under schema/
+SCHEMAS = {
+    "plant/robot_arm": RobotArmPlantConf,
+    "controller/sinusoids": SinusoidsConf,
+    "observer/adaptive_cascade": AdaptiveCascadeConf,
+    "postprocess/dhlm_metrics": DHLMMetricsConf,
+}

@@ -1,6 +1,6 @@
 """Structured-config schemas of the Moreno components.
 
-Stored by :func:`register_configs` (called from :func:`hgo.config.register_configs`):
+Stored from :data:`SCHEMAS` by :func:`hgo.config.register_configs`:
 
 * ``schema/plant/moreno_example``: the example of Section 5 in form (2)
   (:func:`hgo.plants.circle_form.moreno_example_plant`);
@@ -20,8 +20,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from typing import Any
-
-from hydra.core.config_store import ConfigStore
 
 
 @dataclass
@@ -106,12 +104,12 @@ class MorenoSectorConf:
     rho_lo: float = -50.0
 
 
-def register_configs() -> None:
-    """Store the schemas above in Hydra's ConfigStore (idempotent)."""
-    cs = ConfigStore.instance()
-    cs.store(group="schema/plant", name="moreno_example", node=MorenoExampleConf)
-    cs.store(group="schema/plant", name="circle_form", node=CircleFormConf)
-    cs.store(group="schema/observer", name="circle_criterion", node=CircleCriterionConf)
-    cs.store(group="schema/controller", name="profile_input", node=ProfileInputConf)
-    cs.store(group="schema/postprocess", name="moreno_certificate", node=MorenoCertificateConf)
-    cs.store(group="schema/postprocess", name="moreno_sector", node=MorenoSectorConf)
+# what hgo.config.register_configs stores: "<group>/<name>" -> schema, under schema/
+SCHEMAS = {
+    "plant/moreno_example": MorenoExampleConf,
+    "plant/circle_form": CircleFormConf,
+    "observer/circle_criterion": CircleCriterionConf,
+    "controller/profile_input": ProfileInputConf,
+    "postprocess/moreno_certificate": MorenoCertificateConf,
+    "postprocess/moreno_sector": MorenoSectorConf,
+}

@@ -1,6 +1,6 @@
 """Structured-config schemas of the Sanfelice & Praly components beyond the foundation.
 
-Stored by :func:`register_configs` (called from :func:`hgo.config.register_configs`):
+Stored from :data:`SCHEMAS` by :func:`hgo.config.register_configs`:
 
 * ``schema/observer/sp_collection``: the collection (21) of N observers
   (:func:`hgo.observers.collection.sp_collection`);
@@ -19,8 +19,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from typing import Any
-
-from hydra.core.config_store import ConfigStore
 
 
 @dataclass
@@ -80,11 +78,10 @@ class SPBoundsConf:
     L: list[float] | None = None
 
 
-def register_configs() -> None:
-    """Store the schemas above in Hydra's ConfigStore (idempotent)."""
-    cs = ConfigStore.instance()
-    cs.store(group="schema/observer", name="sp_collection", node=SPCollectionConf)
-    cs.store(group="schema/postprocess", name="notch", node=NotchConf)
-    cs.store(group="schema/postprocess", name="oscillation", node=OscillationConf)
-    cs.store(group="schema/postprocess", name="sp_bounds", node=SPBoundsConf)
-
+# what hgo.config.register_configs stores: "<group>/<name>" -> schema, under schema/
+SCHEMAS = {
+    "observer/sp_collection": SPCollectionConf,
+    "postprocess/notch": NotchConf,
+    "postprocess/oscillation": OscillationConf,
+    "postprocess/sp_bounds": SPBoundsConf,
+}
