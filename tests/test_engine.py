@@ -10,6 +10,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from hgo.components import Observer, Plant
+from hgo.engine import codegen, tableau
 from hgo.engine.simulate import Noise, SolverSettings, no_noise, simulate, simulate_ensemble
 from hgo.engine.system import System
 from hgo.ensemble import stack_members
@@ -274,3 +275,21 @@ def test_kernel_decorators_set_llvm_noalias() -> None:
         define = next(line for line in ir.splitlines()
                       if line.startswith("define") and "arg.a.4" in line)
         assert bool(re.search(data_arg, define)) is expected
+
+
+def test_integrator_source_is_kept_in_the_cache_and_a_damaged_copy_is_made_anew(
+        tmp_path, monkeypatch):
+    """The generated tableau text is read back from the kernel cache (a cached kernel is
+    then found without importing scipy) equal to what scipy's coefficients give; a
+    truncated copy is detected by its hash line and written anew."""
+    monkeypatch.setenv("HGO_CACHE_DIR", str(tmp_path))
+    codegen._integrator_source.cache_clear()
+    text = codegen._integrator_source("dop853")
+    assert text == tableau.method_source("dop853")
+    (entry,) = tmp_path.glob("hgo_tableau_dop853_*.txt")
+    whole = entry.read_text()
+    entry.write_text(whole[:300])
+    codegen._integrator_source.cache_clear()
+    assert codegen._integrator_source("dop853") == text
+    assert entry.read_text() == whole
+    codegen._integrator_source.cache_clear()

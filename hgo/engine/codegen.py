@@ -26,9 +26,10 @@ from pathlib import Path
 from types import ModuleType
 
 from hgo.components import no_update
+from hgo.engine import tableau
 from hgo.engine.jit import borrow_function, view_function
 from hgo.engine.system import System
-from hgo.engine.tableau import ADAPTIVE, method_source
+from hgo.engine.tableau import ADAPTIVE, method_source, scipy_tableau_files
 
 _TEMPLATE = Path(__file__).with_name("kernel_template.py")
 FASTMATH = ("contract", "arcp")
@@ -245,7 +246,7 @@ def kernel_source(system: System, method: str = "dopri5") -> tuple[str, dict[str
     functions, calls = _functions(system)
     sections = _sections()
     if method in ADAPTIVE:
-        integrator = method_source(method) + sections["adaptive"]
+        integrator = _integrator_source(method) + sections["adaptive"]
     elif method == "rk4":
         integrator = sections["rk4"]
     else:
@@ -264,6 +265,34 @@ def _digest(text: str) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:20]
 
 
+@functools.cache
+def _integrator_source(method: str) -> str:
+    """:func:`~hgo.engine.tableau.method_source`, kept in the cache folder under a hash of
+    what it is made from (``tableau.py`` and scipy's coefficient files), so that a cached
+    kernel is found without importing scipy. An entry whose text does not match the hash
+    on its first line is made anew."""
+    made_from = [Path(tableau.__file__), *scipy_tableau_files()]
+    key = _digest(method + "".join(path.read_text() for path in made_from))
+    path = cache_dir() / f"hgo_tableau_{method}_{key}.txt"
+    try:
+        head, text = path.read_text().split("\n", 1)
+        if head == f"# {_digest(text)}":
+            return text
+    except (OSError, UnicodeDecodeError, ValueError):
+        pass
+    text = method_source(method)
+    _atomic_write(path, f"# {_digest(text)}\n{text}")
+    return text
+
+
+def _atomic_write(path: Path, text: str) -> None:
+    """``text`` into ``path`` through a temporary file and a rename: jobs may race."""
+    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+    with os.fdopen(fd, "w") as fh:
+        fh.write(text)
+    os.replace(tmp, path)
+
+
 def _write_once(text: str) -> Path:
     """The cache entry of ``text``, named by its hash; an existing entry is verified (hash of
     its text) and a corrupted one rewritten, with its numba cache, after one warning."""
@@ -279,10 +308,7 @@ def _write_once(text: str) -> Path:
         warnings.warn(f"hgo: kernel-cache entry {path.name} is corrupted (its text does not "
                       "match its hash); rebuilding it", RuntimeWarning, stacklevel=3)
         purge_numba_cache(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")  # atomic: jobs may race
-    with os.fdopen(fd, "w") as fh:
-        fh.write(text)
-    os.replace(tmp, path)
+    _atomic_write(path, text)
     return path
 
 

@@ -31,14 +31,19 @@ but cost numba about 2 ms of compile time per operation: hundreds for DOP853.
 
 from __future__ import annotations
 
+import importlib.util
+from pathlib import Path
+
 import numpy as np
 
-# scipy's private modules, on purpose: the tableaus solve_ivp itself uses (stable since
-# scipy 1.4); tests/test_engine.py checks hgo takes solve_ivp's steps to round-off.
-from scipy.integrate._ivp import dop853_coefficients as dop853
-from scipy.integrate._ivp.rk import RK45
-
 ADAPTIVE = ("dopri5", "dop853")
+
+
+def scipy_tableau_files() -> list[Path]:
+    """scipy's files holding the coefficients :func:`method_source` reads (found without
+    importing scipy: a cached kernel's text is recognised without its 0.2-0.3 s import)."""
+    scipy_dir = Path(importlib.util.find_spec("scipy").origin).parent
+    return [scipy_dir / "integrate" / "_ivp" / name for name in ("rk.py", "dop853_coefficients.py")]
 
 
 Code = tuple[list[str], list[str]]
@@ -111,6 +116,10 @@ _SCALE = "atol + rtol * max(abs(z[i]), abs(zt[i]))"
 
 
 def _dopri5() -> Code:
+    # scipy's private modules, on purpose: the tableaus solve_ivp itself uses (stable since
+    # scipy 1.4); tests/test_engine.py checks hgo takes solve_ivp's steps to round-off.
+    from scipy.integrate._ivp.rk import RK45
+
     n = RK45.n_stages
     P = RK45.P  # (n + 1, 4): zo = z + h * sum_q th^(q+1) sum_j P[j, q] K_j
     c_err, err = _sums("E", RK45.E[None, :], "        ")
@@ -139,6 +148,8 @@ def _dopri5() -> Code:
 
 
 def _dop853() -> Code:
+    from scipy.integrate._ivp import dop853_coefficients as dop853
+
     n, n_ext, n_f = dop853.N_STAGES, dop853.N_STAGES_EXTENDED, dop853.INTERPOLATOR_POWER
     A, C, D = dop853.A, dop853.C, dop853.D
     c_err, err = _sums("E53", np.vstack([dop853.E5, dop853.E3]), "        ")
