@@ -166,7 +166,7 @@ def comparison_figure(sweep: Path, labels: dict[str, str], exclude: set[str], pa
                       observer: str) -> list[str]:
     """Fig. 3-style comparison from the recordings; returns the jobs left out, with why."""
     from hgo.papers.sanfelice_praly.figures import fig3_compare
-    from hgo.recording import read_recording
+    from hgo.recording import read_arrays
 
     runs, left_out = [], []
     for job, label in labels.items():
@@ -177,7 +177,7 @@ def comparison_figure(sweep: Path, labels: dict[str, str], exclude: set[str], pa
         if not rrd.exists():
             left_out.append(f"{job}: no recording.rrd")
             continue
-        rec = read_recording(rrd)
+        rec = read_arrays(rrd)
         if f"/observer/{observer}/xhat" not in rec:
             left_out.append(f"{job}: no observer '{observer}' in the recording")
             continue

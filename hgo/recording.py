@@ -49,6 +49,7 @@ import rerun.blueprint as rrb
 __all__ = [
     "TIMELINE",
     "Series",
+    "read_arrays",
     "read_recording",
     "time_series_blueprint",
     "write_recording",
@@ -416,8 +417,43 @@ def _column_values(column: object, n: int) -> np.ndarray:
     return out
 
 
-def read_recording(path: str | Path, allow_incomplete: bool = False) -> dict[str, np.ndarray]:
-    """Read the scalar series of a recording written by :func:`write_recording`.
+def _read_store(path: str | Path, allow_incomplete: bool):
+    """The first recording store of ``path``, refused (:class:`RecordingIncomplete`) when
+    unreadable or without the ``/run/complete`` marker unless ``allow_incomplete``."""
+    from rerun.chunk import RrdReader
+
+    try:
+        store = RrdReader(Path(path)).stream().collect()
+    except Exception as err:  # noqa: BLE001 - rerun's errors for a damaged file vary
+        raise RecordingIncomplete(f"recording {path} is unreadable (incomplete write?): "
+                                  f"{' '.join(str(err).split())[:200]}") from err
+    if COMPLETE not in store.schema().entity_paths():
+        if not allow_incomplete:
+            raise RecordingIncomplete(f"recording {path} is truncated: its writing did not "
+                                      f"finish (no {COMPLETE} marker); pass "
+                                      "allow_incomplete=True to read what it holds")
+        warnings.warn(f"recording {path} is truncated (no {COMPLETE} marker)",
+                      RuntimeWarning, stacklevel=3)
+    return store
+
+
+def _store_arrays(store) -> dict[str, np.ndarray]:
+    if TIMELINE not in [c.name for c in store.schema().index_columns()]:
+        return {TIMELINE: np.empty(0)}  # a run with no samples has no timeline at all
+    table = store.reader(index=TIMELINE).to_arrow_table()
+    table = table.sort_by(TIMELINE)
+    time_ns = table.column(TIMELINE).cast("int64").to_numpy()
+    out: dict[str, np.ndarray] = {TIMELINE: time_ns / 1e9}
+    for name in table.column_names:
+        if name.endswith(_SCALARS_SUFFIX):
+            entity = name[: -len(_SCALARS_SUFFIX)]
+            out[entity] = _column_values(table.column(name), table.num_rows)
+    return out
+
+
+def read_arrays(path: str | Path, allow_incomplete: bool = False) -> dict[str, np.ndarray]:
+    """The scalar series of a recording written by :func:`write_recording`, one array per
+    entity (what figures and aggregations of several runs use).
 
     A file whose writing did not finish (no ``/run/complete`` marker: interrupted,
     killed, a full disk) raises :class:`RecordingIncomplete`; with ``allow_incomplete``
@@ -436,41 +472,16 @@ def read_recording(path: str | Path, allow_incomplete: bool = False) -> dict[str
         Rows where an entity has no sample are NaN. A recording without samples gives
         only an empty ``"sim_time"``.
     """
-    from rerun.chunk import RrdReader
-
-    try:
-        store = RrdReader(Path(path)).stream().collect()
-    except Exception as err:  # noqa: BLE001 - rerun's errors for a damaged file vary
-        raise RecordingIncomplete(f"recording {path} is unreadable (incomplete write?): "
-                                  f"{' '.join(str(err).split())[:200]}") from err
-    if COMPLETE not in store.schema().entity_paths():
-        if not allow_incomplete:
-            raise RecordingIncomplete(f"recording {path} is truncated: its writing did not "
-                                      f"finish (no {COMPLETE} marker); pass "
-                                      "allow_incomplete=True to read what it holds")
-        warnings.warn(f"recording {path} is truncated (no {COMPLETE} marker)",
-                      RuntimeWarning, stacklevel=2)
-    if TIMELINE not in [c.name for c in store.schema().index_columns()]:
-        return {TIMELINE: np.empty(0)}  # a run with no samples has no timeline at all
-    table = store.reader(index=TIMELINE).to_arrow_table()
-    table = table.sort_by(TIMELINE)
-    time_ns = table.column(TIMELINE).cast("int64").to_numpy()
-    out: dict[str, np.ndarray] = {TIMELINE: time_ns / 1e9}
-    for name in table.column_names:
-        if name.endswith(_SCALARS_SUFFIX):
-            entity = name[: -len(_SCALARS_SUFFIX)]
-            out[entity] = _column_values(table.column(name), table.num_rows)
-    return out
+    return _store_arrays(_read_store(path, allow_incomplete))
 
 
-def read_dataframe(path: str | Path) -> pd.DataFrame:
+def read_recording(path: str | Path, allow_incomplete: bool = False) -> pd.DataFrame:
     """The scalar series of a recording as a DataFrame indexed by ``sim_time`` (seconds),
     one column per series named ``<entity>/<series name>`` as logged, e.g.
-    ``/plant/x/x1``, ``/observer/sign_indefinite/xhat/x1_hat``, ``/error/…/e_x1``."""
-    from rerun.chunk import RrdReader
-
-    data = read_recording(path)
-    store = RrdReader(Path(path)).stream().collect()
+    ``/plant/x/x1``, ``/observer/sign_indefinite/xhat/x1_hat``, ``/error/…/e_x1``; rows
+    where a series has no sample are NaN. Incomplete files: as :func:`read_arrays`."""
+    store = _read_store(path, allow_incomplete)
+    data = _store_arrays(store)
     static = store.reader(index=None).to_arrow_table().to_pylist()
     names = {}
     for column, value in (static[0] if static else {}).items():

@@ -110,7 +110,7 @@ def show(argv: list[str]) -> int:
 
 
 def export(argv: list[str]) -> int:
-    from hgo.recording import read_dataframe
+    from hgo.recording import read_recording
 
     parser = argparse.ArgumentParser(prog="hgo export", description="A recording's series as "
                                      "a table (index sim_time, one column per series).")
@@ -123,7 +123,7 @@ def export(argv: list[str]) -> int:
     if not rrd.is_file():
         return _error(f"source: {rrd} does not exist")
     out = Path(args.out) if args.out else rrd.with_suffix(f".{args.format}")
-    df = read_dataframe(rrd)
+    df = read_recording(rrd)
     if args.format == "csv":
         df.to_csv(out)
     else:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from hgo.recording import read_recording
+from hgo.recording import read_arrays
 from hgo.runner import run
 
 
@@ -16,7 +16,7 @@ def test_dhlm_example_writes_figures_recording_and_metrics(compose, tmp_path):
     result = run(compose(["experiment=dhlm_example"], tmp_path), tmp_path)
     for name in ("fig1", "fig2", "fig3", "fig4", "fig5", "errors"):
         assert (tmp_path / f"{name}.png").stat().st_size > 10_000
-    rec = read_recording(tmp_path / "recording.rrd")
+    rec = read_arrays(tmp_path / "recording.rrd")
     raw, sat = rec["/observer/cascade/hgo/raw"], rec["/observer/cascade/hgo/saturated"]
     assert raw.shape == sat.shape == (20001, 2)
     assert np.max(np.abs(raw[:, 1])) > 150.0 and np.max(np.abs(sat)) <= 150.0

@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 
 from hgo.config import compose
-from hgo.recording import read_recording
+from hgo.recording import read_arrays
 from hgo.runner import run
 
 
@@ -15,7 +15,7 @@ def test_fig1_preset_writes_figure_recording_and_metrics(tmp_path):
     under /observer/circle/) and metrics.csv with the certificate and bound rows."""
     run(compose(["experiment=moreno_fig1"], tmp_path), tmp_path)
     assert (tmp_path / "fig1.png").stat().st_size > 10_000
-    rec = read_recording(tmp_path / "recording.rrd")
+    rec = read_arrays(tmp_path / "recording.rrd")
     for entity in ("e", "z", "psi", "certificate"):
         assert f"/observer/circle/{entity}" in rec
     z = rec["/observer/circle/z"][:, 0]

@@ -8,7 +8,13 @@ import numpy as np
 import pytest
 import rerun.blueprint as rrb
 
-from hgo.recording import Series, read_recording, time_series_blueprint, write_recording
+from hgo.recording import (
+    Series,
+    read_arrays,
+    read_recording,
+    time_series_blueprint,
+    write_recording,
+)
 
 N = 10_000
 
@@ -26,7 +32,7 @@ def _run(n: int = N) -> tuple[np.ndarray, list[Series]]:
 def test_round_trip(tmp_path: Path) -> None:
     t, series = _run()
     path = write_recording(tmp_path / "run.rrd", t, series, recording_id="rt_1")
-    back = read_recording(path)
+    back = read_arrays(path)
     assert set(back) == {"sim_time", "/plant/x", "/observer/sp6/xhat"}
     np.testing.assert_array_equal(np.round(back["sim_time"] * 1e9), np.round(t * 1e9))
     np.testing.assert_allclose(back["sim_time"], t, rtol=0, atol=1e-9)
@@ -44,7 +50,7 @@ def test_file_complete_on_return(tmp_path: Path) -> None:
         text={"/run/status": "failed at t=3.2 s: non-finite state"},
     )
     assert path.is_file() and path.stat().st_size > 0
-    assert read_recording(path)["/plant/x"].shape == (100, 3)
+    assert read_arrays(path)["/plant/x"].shape == (100, 3)
 
 
 def test_overwrite_and_nan_kept(tmp_path: Path) -> None:
@@ -54,7 +60,7 @@ def test_overwrite_and_nan_kept(tmp_path: Path) -> None:
     values = series[0].values.copy()
     values[20:] = np.nan
     write_recording(path, t, [Series("/plant/x", ["x1", "x2", "x3"], values)], recording_id="b")
-    back = read_recording(path)
+    back = read_arrays(path)
     assert set(back) == {"sim_time", "/plant/x"}
     np.testing.assert_array_equal(back["/plant/x"], values)
 
@@ -80,7 +86,7 @@ def test_shape_mismatch_names_entity(tmp_path: Path) -> None:
 def test_early_stop_with_sliced_t(tmp_path: Path) -> None:
     t, _ = _run(10)
     y = Series("/measurement/y", ["y"], np.arange(6.0)[:, None])
-    back = read_recording(write_recording(tmp_path / "x.rrd", t[:6], [y], recording_id="r"))
+    back = read_arrays(write_recording(tmp_path / "x.rrd", t[:6], [y], recording_id="r"))
     np.testing.assert_array_equal(back["/measurement/y"], y.values)
 
 
@@ -100,7 +106,7 @@ def test_blueprint_accepted(tmp_path: Path) -> None:
     )
     assert isinstance(bp, rrb.Blueprint)
     path = write_recording(tmp_path / "bp.rrd", t, series, recording_id="bp", blueprint=bp)
-    np.testing.assert_array_equal(read_recording(path)["/plant/x"], series[0].values)
+    np.testing.assert_array_equal(read_arrays(path)["/plant/x"], series[0].values)
 
 
 def test_inner_wildcard_needs_entities() -> None:
@@ -129,7 +135,7 @@ def test_zero_samples(tmp_path: Path) -> None:
     path = write_recording(
         tmp_path / "e.rrd", np.zeros(0), [empty], recording_id="e", text={"/run/status": "failed"}
     )
-    back = read_recording(path)
+    back = read_arrays(path)
     assert set(back) == {"sim_time"} and back["sim_time"].shape == (0,)
 
 
@@ -146,7 +152,20 @@ def test_blocks_and_strided_values(tmp_path: Path, monkeypatch: pytest.MonkeyPat
         Series("/input/u", ["u"], z[:, 4:5]),
         Series("/measurement/y", ["y1", "y2", "y3"], z[:, 1:4]),
     ]
-    back = read_recording(write_recording(tmp_path / "b.rrd", t, series, recording_id="blk"))
+    back = read_arrays(write_recording(tmp_path / "b.rrd", t, series, recording_id="blk"))
     np.testing.assert_allclose(back["sim_time"], t, rtol=0, atol=1e-9)
     for s in series:
         np.testing.assert_array_equal(back[s.entity], s.values)
+
+
+def test_read_recording_gives_the_series_names_as_columns_indexed_by_sim_time(tmp_path):
+    """The user-facing reader: one column per logged series name, ``sim_time`` index,
+    the same values as :func:`read_arrays`."""
+    t = np.linspace(0.0, 1.0, 11)
+    x = Series("/plant/x", ["x1", "x2"], np.column_stack([np.sin(t), np.cos(t)]))
+    path = write_recording(tmp_path / "n.rrd", t, [x], recording_id="names")
+    df = read_recording(path)
+    assert df.index.name == "sim_time"
+    np.testing.assert_allclose(df.index.to_numpy(), t, rtol=0, atol=1e-9)  # ns timeline
+    assert list(df.columns) == ["/plant/x/x1", "/plant/x/x2"]
+    np.testing.assert_array_equal(df.to_numpy(), read_arrays(path)["/plant/x"])

@@ -12,7 +12,7 @@ import pytest
 from hydra.errors import ConfigCompositionException
 
 from hgo.components import Plant
-from hgo.recording import read_recording
+from hgo.recording import read_arrays
 from hgo.runner import SimulationFailed, run
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -23,7 +23,7 @@ def test_sp_fig1_run_writes_recording_and_metrics(compose, tmp_path):
     cfg = compose(["experiment=sp_fig1", *SHORT], tmp_path)
     result = run(cfg, tmp_path)
     traj = result.trajectory
-    rec = read_recording(tmp_path / "recording.rrd")
+    rec = read_arrays(tmp_path / "recording.rrd")
     n = 2001
     assert len(rec["sim_time"]) == n
     np.testing.assert_allclose(rec["sim_time"], np.arange(n) * 0.01, atol=1e-9)
@@ -155,7 +155,7 @@ def test_diverging_run_keeps_outputs_and_is_marked_failed(compose, tmp_path):
     t_exit = np.log(49.99 / 0.99)
     assert table.t_stop.iloc[0] == pytest.approx(t_exit, abs=0.01)
     assert table.empirical.isna().all()
-    rec = read_recording(tmp_path / "recording.rrd")
+    rec = read_arrays(tmp_path / "recording.rrd")
     assert len(rec["sim_time"]) == int(t_exit / 0.01) + 1  # every grid sample before the exit
     assert np.isfinite(rec["/plant/x"]).all()
 

@@ -14,7 +14,7 @@ from hgo.decimate import bucket_edges, envelope, write_run_recording
 from hgo.ensemble_runner import merge_shards, run_ensemble
 from hgo.grid import expand_grid, parse_shard, shard_indices
 from hgo.papers.ahrens_khalil.figures import tradeoff_point, write_tradeoff_report
-from hgo.recording import Series, read_recording
+from hgo.recording import Series, read_arrays
 from hgo.runner import job_config_yaml, simulate_config
 
 SP_GRID = ["experiment=sp_ensemble", "ensemble.size=0", "solver.t_end=20",
@@ -179,10 +179,10 @@ def test_recording_modes_never_change_metrics(compose, tmp_path, mode):
     if mode == "off":
         assert not rrd.exists()
         return
-    rec = read_recording(rrd)
-    assert len(rec["sim_time"]) == 256 < len(read_recording(tmp_path / "full" /
+    rec = read_arrays(rrd)
+    assert len(rec["sim_time"]) == 256 < len(read_arrays(tmp_path / "full" /
                                                             "recording.rrd")["sim_time"])
-    full_r = read_recording(tmp_path / "full" / "recording.rrd")["/observer/sign_indefinite/r"]
+    full_r = read_arrays(tmp_path / "full" / "recording.rrd")["/observer/sign_indefinite/r"]
     assert rec["/observer/sign_indefinite/r"].max() == full_r.max()  # the peak stays
 
 

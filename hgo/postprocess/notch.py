@@ -36,7 +36,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import expm
 
 from hgo.engine.simulate import Trajectory
 from hgo.engine.system import System
@@ -72,7 +71,9 @@ def discrete_notch(w0: float, phi1: float, phi2: float, dt: float,
     (the same map as ``scipy.signal.cont2discrete(..., method="foh")``, in the original
     state coordinates).
     """
-    from scipy import signal  # 0.7 s to import: only when a notch is discretised
+    # 0.7 s to import: only when a notch is discretised
+    from scipy import signal
+    from scipy.linalg import expm
 
     A, B, C, D = signal.tf2ss([1.0, 2 * phi1 * w0, w0**2], [1.0, 2 * phi2 * w0, w0**2])
     n = A.shape[0]

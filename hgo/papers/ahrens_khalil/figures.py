@@ -141,7 +141,7 @@ def sweep_figure(sweep: str | Path, which: str = "fig2", late_window: float = 1.
     """
     import pandas as pd
 
-    from hgo.recording import read_recording
+    from hgo.recording import read_arrays
 
     sweep = Path(sweep)
     panels, skipped = [], []
@@ -154,7 +154,7 @@ def sweep_figure(sweep: str | Path, which: str = "fig2", late_window: float = 1.
         if (table.status != "ok").any():
             skipped.append(f"{job.name}: run failed ({table.message.iloc[0]})")
             continue
-        rec = read_recording(rrd)
+        rec = read_arrays(rrd)
         if TRACKING not in rec:
             skipped.append(f"{job.name}: no {TRACKING} in the recording")
             continue

@@ -92,7 +92,7 @@ def fig3(result, path) -> None:
 
 def fig3_compare(runs: Sequence[tuple[str, dict[str, np.ndarray]]], path,
                  observer: str = "sign_indefinite") -> None:
-    """Fig. 3: x^1, x^2, r of several runs (label, recording as from ``read_recording``)."""
+    """Fig. 3: x^1, x^2, r of several runs (label, recording as from ``read_arrays``)."""
     colours = ["tab:blue", "tab:red", "tab:green", "tab:orange", "tab:purple"]
     fig, axes = plt.subplots(3, 1, figsize=(10, 8), sharex=True)
     for k, (label, rec) in enumerate(runs):

@@ -34,7 +34,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg as sla
 
 from hgo.lmi import bisect, sym
 
@@ -138,8 +137,11 @@ def triangular_matrices(n: int, b: float) -> tuple[np.ndarray, np.ndarray, np.nd
 
 
 def _gen_eigs(M: np.ndarray, P: np.ndarray) -> np.ndarray:
-    """Generalised eigenvalues of the symmetric pencil (M, P), P > 0, ascending."""
-    return sla.eigh(0.5 * (M + M.T), 0.5 * (P + P.T), eigvals_only=True)
+    """Generalised eigenvalues of the symmetric pencil (M, P), P > 0, ascending: those of
+    L^-1 M L^-T with P = L L^T (LAPACK's sygv reduction; numpy's, so a run needing only
+    this does not import scipy.linalg); raises LinAlgError when P is not positive definite."""
+    L_inv = np.linalg.inv(np.linalg.cholesky(0.5 * (P + P.T)))
+    return np.linalg.eigvalsh(L_inv @ (0.5 * (M + M.T)) @ L_inv.T)
 
 
 def check_conditions(
