@@ -28,6 +28,7 @@ from __future__ import annotations
 import logging
 import time
 from dataclasses import dataclass
+from datetime import datetime
 from pathlib import Path
 
 import numpy as np
@@ -36,6 +37,7 @@ from hydra.utils import instantiate
 from omegaconf import DictConfig
 
 from hgo.decimate import write_run_recording
+from hgo.engine.jit import compile_timer
 from hgo.engine.simulate import INTERRUPTED, rho_const, simulate, simulate_ensemble
 from hgo.engine.system import System
 from hgo.ensemble import (
@@ -64,6 +66,7 @@ from hgo.runner import (
     signals,
     solver_settings,
     status_text,
+    track,
 )
 from hgo.validate import check_values
 
@@ -253,8 +256,12 @@ def run_ensemble(cfg: DictConfig, out_dir: str | Path) -> EnsembleResult:
                                            ready.solver, ready.noise)
     size = len(plan.index)
     out_dir.mkdir(parents=True, exist_ok=True)
+    started, t0 = datetime.now(), time.perf_counter()
     record = bool(cfg.get("postprocess"))
-    out = _simulate_chunks(solver, noise, ready.params, ready.z0, ready.d0, systems, record)
+    with compile_timer() as compiling:
+        out = _simulate_chunks(solver, noise, ready.params, ready.z0, ready.d0, systems, record)
+    t_compile = compiling.duration if compiling.done else 0.0
+    timings = {"compile": t_compile, "simulate": time.perf_counter() - t0 - t_compile}
     posts = _post([n["postprocess"] for n in nodes], systems, out["trajectories"]) \
         if record else None
 
@@ -273,7 +280,11 @@ def run_ensemble(cfg: DictConfig, out_dir: str | Path) -> EnsembleResult:
     n_failed = int((out["status"] != 0).sum())
     if n_failed:
         log.warning("ensemble: %d of %d members stopped early (see metrics.csv)", n_failed, size)
-    if (out["status"] == INTERRUPTED).any() or first.status == INTERRUPTED:
+    interrupted = (out["status"] == INTERRUPTED).any() or first.status == INTERRUPTED
+    status = ("interrupted" if interrupted else
+              f"ok ({n_failed} of {size} members stopped early)" if n_failed else "ok")
+    track(cfg, out_dir, started, status, timings, table[table.member == "all"])
+    if interrupted:
         raise RunInterrupted(f"ensemble interrupted (outputs up to then are in {out_dir})")
     values = {k: np.asarray(v) for k, v in plan.values.items()}
     result = EnsembleResult(systems, values, out["acc"], out["status"], out["t_stop"], table,

@@ -397,15 +397,17 @@ def run(cfg: DictConfig, out_dir: str | Path) -> RunResult:
     stopped = (f"run {status_word(traj.status)} at t = {traj.t_stop:g} s: {traj.message} "
                f"(outputs up to then are in {out_dir})")
     if not traj.ok:
-        _track(cfg, result, started, f"{status_word(traj.status)}: {traj.message}")
+        track(cfg, out_dir, started, f"{status_word(traj.status)}: {traj.message}",
+              result.timings, table)
         raise (RunInterrupted if traj.status == INTERRUPTED else SimulationFailed)(stopped)
     _figures(cfg, result)
-    _track(cfg, result, started, "ok")
+    track(cfg, out_dir, started, "ok", result.timings, table)
     return result
 
 
-def _track(cfg: DictConfig, result: RunResult, started: datetime, status: str) -> None:
+def track(cfg: DictConfig, out_dir: Path, started: datetime, status: str,
+          timings: dict[str, float], metrics: pd.DataFrame) -> None:
     """``run.json``: provenance, timings, status, config and metrics (:mod:`hgo.runs`)."""
     job = OmegaConf.masked_copy(cfg, [k for k in cfg if k != "hydra"])
-    write_run_json(result.out_dir, OmegaConf.to_container(job, resolve=True), status, started,
-                   result.timings, result.metrics)
+    write_run_json(out_dir, OmegaConf.to_container(job, resolve=True), status, started,
+                   timings, metrics)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -16,6 +17,7 @@ from hgo.grid import expand_grid, parse_shard, shard_indices
 from hgo.papers.ahrens_khalil.figures import tradeoff_point, write_tradeoff_report
 from hgo.recording import Series, read_arrays
 from hgo.runner import job_config_yaml, simulate_config
+from hgo.runs import load
 
 SP_GRID = ["experiment=sp_ensemble", "ensemble.size=0", "solver.t_end=20",
            "metrics.window=5",
@@ -80,6 +82,20 @@ def test_grid_combines_with_random_draws_and_seeds(compose, tmp_path):
     np.testing.assert_array_equal(p2[:3], p2[3:])
     assert len(set(p2[:3])) == 3
     np.testing.assert_array_equal(result.draws["plant.nu1"], [2.0] * 3 + [3.0] * 3)
+
+
+def test_an_ensemble_run_writes_run_json_with_its_status_and_aggregate_metrics(
+        compose, tmp_path):
+    """An ensemble job is tracked like a single run (``hgo runs`` lists it): run.json with
+    status ok, its timings and the aggregate (member 'all') rows as metrics."""
+    run_ensemble(compose(SP_GRID, tmp_path), tmp_path)
+    info = json.loads((tmp_path / "run.json").read_text())
+    table = pd.read_csv(tmp_path / "metrics.csv")
+    aggregate = table[table.member == "all"].iloc[0]
+    assert info["status"] == "ok" and info["seconds"]["simulate"] > 0
+    assert info["metrics"][f"{aggregate.observer}/{aggregate.quantity}"] == pytest.approx(
+        aggregate.empirical, rel=1e-12)
+    assert load(tmp_path).path.tolist() == [str(tmp_path)]
 
 
 def test_grid_rejects_keys_shared_by_all_members(compose, tmp_path):
