@@ -1,7 +1,8 @@
 """What a run prints: a metrics table that fits 100 columns, one line per sweep job.
 
 The full table stays in ``metrics.csv``; the console shows observer, quantity, value,
-bound, ratio and whether the bound holds (✓ / ✗ / vacuous / empty when there is no bound).
+bound, ratio and whether the bound holds (✓ / ✗ / vacuous / empty when there is no bound);
+for an ensemble, the members' mean, std, min, max and the counts of members ok / failed.
 """
 
 from __future__ import annotations
@@ -33,11 +34,16 @@ def _verdict(row, bound: float) -> str:
     return given if isinstance(given, str) else verdict(float(row.empirical), bound)
 
 
+def _name_widths(rows: pd.DataFrame, width: int, rest: int) -> tuple[int, int]:
+    """Widths of the observer and quantity columns when the others take ``rest``."""
+    obs_w = min(16, max(8, *(len(str(o)) for o in rows.observer)))
+    return obs_w, width - obs_w - rest - 2
+
+
 def compact_table(table: pd.DataFrame, width: int = WIDTH) -> str:
     """The metrics of a run in at most ``width`` columns, duplicates dropped."""
     rows = table.drop_duplicates(subset=["observer", "quantity"])
-    obs_w = min(16, max(8, *(len(str(o)) for o in rows.observer)))
-    q_w = width - obs_w - 4 * 11 - 9
+    obs_w, q_w = _name_widths(rows, width, 3 * 11 + 9)
     head = f"{'observer':{obs_w}} {'quantity':{q_w}} {'value':>10} {'bound':>10} " \
            f"{'ratio':>10} {'holds':>8}"
     lines = [head, "-" * len(head)]
@@ -46,6 +52,22 @@ def compact_table(table: pd.DataFrame, width: int = WIDTH) -> str:
         lines.append(f"{_clip(str(r.observer), obs_w):{obs_w}} {_clip(str(r.quantity), q_w):{q_w}}"
                      f" {_num(r.empirical):>10} {_num(bound):>10} {_num(r.ratio):>10}"
                      f" {_verdict(r, bound):>8}")
+    return "\n".join(lines)
+
+
+def ensemble_table(aggregate: pd.DataFrame, width: int = WIDTH) -> str:
+    """An ensemble's aggregate rows (member ``all``) in at most ``width`` columns: mean
+    (``empirical``), std, min, max over the members, and the members ok / failed."""
+    rows = aggregate.drop_duplicates(subset=["observer", "quantity"])
+    obs_w, q_w = _name_widths(rows, width, 4 * 11 + 2 * 7)
+    head = (f"{'observer':{obs_w}} {'quantity':{q_w}} {'mean':>10} {'std':>10} {'min':>10} "
+            f"{'max':>10} {'ok':>6} {'failed':>6}")
+    lines = [head, "-" * len(head)]
+    for r in rows.itertuples():
+        observer = "" if pd.isna(r.observer) else str(r.observer)
+        lines.append(f"{_clip(observer, obs_w):{obs_w}} {_clip(str(r.quantity), q_w):{q_w}}"
+                     f" {_num(r.empirical):>10} {_num(r.std):>10} {_num(r.min):>10}"
+                     f" {_num(r.max):>10} {_num(r.n_ok):>6} {_num(r.n_failed):>6}")
     return "\n".join(lines)
 
 

@@ -36,6 +36,7 @@ import pandas as pd
 from hydra.utils import instantiate
 from omegaconf import DictConfig
 
+from hgo.console import ensemble_table
 from hgo.decimate import write_run_recording
 from hgo.engine.jit import compile_timer
 from hgo.engine.simulate import INTERRUPTED, rho_const, simulate, simulate_ensemble
@@ -270,8 +271,8 @@ def run_ensemble(cfg: DictConfig, out_dir: str | Path) -> EnsembleResult:
     table.insert(0, "run", cfg.get("run_name", "run"))
     with atomic_output(out_dir / "metrics.csv") as partial:
         table.to_csv(partial, index=False)
-    log.info("ensemble metrics (aggregate):\n%s",
-             table[table.member == "all"].dropna(axis=1, how="all").to_string(index=False))
+    log.info("ensemble metrics over %d members (all columns in metrics.csv):\n%s", size,
+             ensemble_table(table[table.member == "all"]))
     first = _record_member0(cfg, out_dir, systems, solver, noise[0], size,
                             posts[0] if posts else PostOutput(),
                             out["trajectories"][0] if record else None)

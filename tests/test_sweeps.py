@@ -11,6 +11,7 @@ import pytest
 import yaml
 from omegaconf import OmegaConf
 
+from hgo.console import ensemble_table
 from hgo.decimate import bucket_edges, envelope, write_run_recording
 from hgo.ensemble_runner import merge_shards, run_ensemble
 from hgo.grid import expand_grid, parse_shard, shard_indices
@@ -128,6 +129,18 @@ def ak_grid(tmp_path_factory):
 
     out = tmp_path_factory.mktemp("ak_grid")
     return run_ensemble(compose(["experiment=ak_tradeoff_grid"], out), out), out
+
+
+def test_ensemble_console_table_fits_100_columns_with_integer_counts(ak_grid):
+    """What an ensemble run prints: one line per aggregate row, at most 100 columns, the
+    member counts as integers (52 ok, 0 failed)."""
+    _, out = ak_grid
+    table = pd.read_csv(out / "metrics.csv")
+    aggregate = table[table.member == "all"]
+    lines = ensemble_table(aggregate).splitlines()
+    assert len(lines) == 2 + len(aggregate.drop_duplicates(["observer", "quantity"]))
+    assert max(len(line) for line in lines) <= 100
+    assert all(line.split()[-2:] == ["52", "0"] for line in lines[2:]), lines
 
 
 def test_ak_tradeoff_grid_fit_equals_the_multirun_fit(ak_grid, compose, tmp_path):
