@@ -298,13 +298,14 @@ def simulate(system: System, solver: SolverSettings, noise: Noise,
 
 
 def _record_arrays(n_out: int, widths: tuple[int, ...]) -> list[np.ndarray]:
-    """Zeroed (n_out, width) arrays, C-contiguous views of one allocation.
+    """(n_out, width) arrays, C-contiguous views of one uninitialised allocation.
 
-    One block rather than one array per signal: glibc serves a freed block of this size
-    again from its heap (its mmap threshold rises to the largest block freed), so the
-    next run of a sweep writes into memory already mapped. Separate arrays of 0.3-1.3 MB
-    each went back to the kernel at every free and were mapped again page by page:
-    ~770 page faults, ~1.2 ms of a 40 s Moreno run with a 1 ms grid (benchmarks/).
+    Not zeroed: the kernel writes every row up to its stop, and only those rows are
+    returned. One block rather than one array per signal: glibc serves a freed block of
+    this size again from its heap (its mmap threshold rises to the largest block freed),
+    so the next run of a sweep writes into memory already mapped. Separate arrays of
+    0.3-1.3 MB each went back to the kernel at every free and were mapped again page by
+    page: ~770 page faults, ~1.2 ms of a 40 s Moreno run with a 1 ms grid (benchmarks/).
     """
     block = np.empty(n_out * sum(widths))
     starts = np.cumsum((0, *widths)) * n_out
