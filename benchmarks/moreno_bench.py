@@ -16,9 +16,10 @@ same grid, restarted at the input's corners (atol = rtol / 100 throughout):
   digits). The loosest DOP853 as accurate as hgo: at rtol 1e-9 its error over the 30 jobs
   is 6.4e-8 against hgo's 4.8e-8;
 * LSODA (stiff/non-stiff switching, no step cap), scipy's fastest here, at rtol 1e-11 and
-  1e-12 (at 1e-10 its error is 2.2e-7). Measured once on the 30 jobs, not repeated here:
-  RK45 (max_step 0.01) needs rtol 1e-10 (error 8.6e-9; 1e-9: 1.0e-7) and took 2.6x the
-  time of DOP853; BDF and Radau took 1.5-5x and 6-10x LSODA's time on the quick jobs.
+  1e-12 (at 1e-10 its error is 2.2e-7). Measured once, not repeated here (wall times
+  of one loaded run): RK45 (max_step 0.01) needs rtol 1e-10 on the 30 jobs (error 8.6e-9;
+  at 1e-9 1.0e-7) and took 66 s against 25.5 s for DOP853 at rtol 1e-9; on the quick
+  jobs BDF and Radau took 1.4-5x and 5-11x LSODA's time at the same rtol (1e-10 .. 1e-12).
 
 Times are CPU seconds of the process (hgo's worker thread included; ``process_time``), the
 ratios those of CPU times: on this shared 2-core machine the wall time of a 3 ms run
@@ -47,11 +48,15 @@ from hgo.papers.moreno.reference import reference_run
 from hgo.runner import build, run_experiment
 
 INPUTS = ("moreno_bad", "moreno_pulse", "moreno_sin", "moreno_sin5", "moreno_sin1")
-# solve_ivp settings (method, rtol, max_step; atol = rtol / 100, max_step None: hgo's h_max):
-# DOP853 as hgo's preset, and LSODA, scipy's fastest here (stiff/non-stiff switching), at
-# the rtol around the accuracy of hgo (at 1e-10 its error over the 30 jobs is 2.2e-7)
-BASELINES = {"dop853": ("DOP853", 1e-10, None), "lsoda_1e-11": ("LSODA", 1e-11, np.inf),
-             "lsoda_1e-12": ("LSODA", 1e-12, np.inf)}
+# solve_ivp settings (method, rtol, max_step, right-hand side; atol = rtol / 100, max_step
+# None: hgo's h_max; "plain": plain_rhs in Python floats, "numpy": joint_rhs): DOP853 as hgo's
+# preset (with numpy: the earlier baseline, kept for comparison), and LSODA, scipy's
+# fastest here (stiff/non-stiff switching), at the rtol around the accuracy of hgo (at
+# 1e-10 its error over the 30 jobs is 2.2e-7)
+BASELINES = {"dop853": ("DOP853", 1e-10, None, "plain"),
+             "dop853_numpy": ("DOP853", 1e-10, None, "numpy"),
+             "lsoda_1e-11": ("LSODA", 1e-11, np.inf, "plain"),
+             "lsoda_1e-12": ("LSODA", 1e-12, np.inf, "plain")}
 JOBS = [(f"observer.circle.L=[200.0,{l2}]", f"plant.a={a}", f"controller={c}")
         for l2, a, c in itertools.product((120.0, 20.0), (0.0, 0.5, 1.0), INPUTS)]
 
@@ -73,7 +78,8 @@ def _median_times(fn, reps: int) -> np.ndarray:
     return np.median([_times(fn) for _ in range(reps)], axis=0)
 
 
-def _baseline(exp, method: str, rtol: float, max_step: float) -> tuple[np.ndarray, np.ndarray]:
+def _baseline(exp, method: str, rtol: float, max_step: float, rhs: str
+              ) -> tuple[np.ndarray, np.ndarray]:
     """(CPU, wall) seconds and states [x, x^] on the grid of solve_ivp on one job."""
     sysm, s = exp.system, exp.solver
     a = -float(sysm.plant.A[1, 1])
@@ -82,7 +88,7 @@ def _baseline(exp, method: str, rtol: float, max_step: float) -> tuple[np.ndarra
     def run():
         out["w"] = reference_run(sysm.observers[0], sysm.controller, a, s.t_end, s.dt_out,
                                  method, rtol, rtol / 100, with_error=False,
-                                 max_step=max_step)[1]
+                                 max_step=max_step, plain=rhs == "plain")[1]
 
     return np.array(_times(run)), out["w"]
 
@@ -108,8 +114,8 @@ def bench(quick: bool) -> dict:
         traj = run_experiment(exp)  # compiles once (then cached)
         hgo_t += _median_times(lambda e=exp: run_experiment(e), reps)
         hgo_err = max(hgo_err, float(np.max(np.abs(_states(traj) - ref))))
-        for key, (method, rtol, max_step) in BASELINES.items():
-            times, w = _baseline(exp, method, rtol, max_step or exp.solver.h_max)
+        for key, (method, rtol, max_step, rhs) in BASELINES.items():
+            times, w = _baseline(exp, method, rtol, max_step or exp.solver.h_max, rhs)
             base_t[key] += times
             base_err[key] = max(base_err[key], float(np.max(np.abs(w - ref))))
     accurate = [key for key in BASELINES if base_err[key] <= hgo_err]
@@ -124,6 +130,7 @@ def bench(quick: bool) -> dict:
                 f"{key}_err": base_err[key]}
     out["ratio_dop853"] = base_t["dop853"][0] / hgo_t[0]
     out["ratio_dop853_wall"] = base_t["dop853"][1] / hgo_t[1]
+    out["ratio_dop853_numpy"] = base_t["dop853_numpy"][0] / hgo_t[0]
     out["ratio_fastest"] = base_t[fastest][0] / hgo_t[0]
     out["ratio_fastest_wall"] = base_t[fastest][1] / hgo_t[1]
     return out
@@ -134,13 +141,14 @@ def _report(r: dict) -> None:
           f"load average {os.getloadavg()[0]:.2f}")
     print(f"  hgo DOP853 rtol 1e-10: {r['hgo_cpu_s']:.4f} ({r['hgo_wall_s']:.4f}), "
           f"{r['hgo_err']:.2e}")
-    for key, (method, rtol, max_step) in BASELINES.items():
-        cap = " max_step h_max" if max_step is None else ""
+    for key, (method, rtol, max_step, rhs) in BASELINES.items():
+        cap = f"{' max_step h_max' if max_step is None else ''}, {rhs} right-hand side"
         worse = "" if r[f"{key}_err"] <= r["hgo_err"] else "  (less accurate than hgo)"
         print(f"  solve_ivp {method} rtol {rtol:g}{cap}: {r[f'{key}_cpu_s']:.2f} "
               f"({r[f'{key}_wall_s']:.2f}), {r[f'{key}_err']:.2e}{worse}")
-    print(f"  ratio, same settings (DOP853): {r['ratio_dop853']:.0f}x CPU "
-          f"({r['ratio_dop853_wall']:.0f}x wall); fastest as accurate ({r['fastest']}): "
+    print(f"  ratio, same settings (DOP853, plain): {r['ratio_dop853']:.0f}x CPU "
+          f"({r['ratio_dop853_wall']:.0f}x wall; numpy right-hand side "
+          f"{r['ratio_dop853_numpy']:.0f}x CPU); fastest as accurate ({r['fastest']}): "
           f"{r['ratio_fastest']:.0f}x CPU ({r['ratio_fastest_wall']:.0f}x wall)")
 
 
