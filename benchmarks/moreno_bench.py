@@ -7,31 +7,46 @@ inputs, 40 s each, e0 = (70, -50): a stiff start, Jacobian ~2e5) are built throu
 normal path (Hydra compose -> build) and run by ``hgo.runner.run_experiment`` (DOP853,
 rtol 1e-10, atol 1e-12, h_max 0.01 s, output grid 1 ms: every signal recorded), after one
 compiling run; hgo's time is the sum over jobs of the median of ``reps`` runs. The baseline
-integrates the same ODE (plant in original coordinates + observer (3), 4 states, Python
-right-hand side, ``hgo.papers.moreno.reference``) with ``scipy.integrate.solve_ivp`` on the
-same grid, restarted at the input's corners (atol = rtol / 100 throughout):
+integrates the same ODE (plant in original coordinates + observer (3), 4 states,
+``hgo.papers.moreno.reference``) with ``scipy.integrate.solve_ivp`` on the same grid,
+restarted at the input's corners (atol = rtol / 100 throughout). Its right-hand side is
+``plain_rhs``, written in Python floats as the Dimassi baseline's (1.7 us a call);
+``joint_rhs``, the same equations in small-array numpy (7.5 us, ``np.polynomial`` for psi),
+made solve_ivp 2.2x slower and is kept as one more DOP853 row for comparison. Settings:
 
 * DOP853, hgo's method and settings (rtol 1e-10, max_step = h_max = 0.01 s: without the
   cap both pairs run at their stability boundary after the stiff start and lose 3-5
   digits). The loosest DOP853 as accurate as hgo: at rtol 1e-9 its error over the 30 jobs
   is 6.4e-8 against hgo's 4.8e-8;
 * LSODA (stiff/non-stiff switching, no step cap), scipy's fastest here, at rtol 1e-11 and
-  1e-12 (at 1e-10 its error is 2.2e-7). Measured once, not repeated here (wall times
-  of one loaded run): RK45 (max_step 0.01) needs rtol 1e-10 on the 30 jobs (error 8.6e-9;
-  at 1e-9 1.0e-7) and took 66 s against 25.5 s for DOP853 at rtol 1e-9; on the quick
-  jobs BDF and Radau took 1.4-5x and 5-11x LSODA's time at the same rtol (1e-10 .. 1e-12).
+  1e-12 (at 1e-10 its error is 2.2e-7). Measured once with the numpy right-hand side, not
+  repeated here (wall times of one loaded run): RK45 (max_step 0.01) needs rtol 1e-10 on
+  the 30 jobs (error 8.6e-9; at 1e-9 1.0e-7) and took 66 s against 25.5 s for DOP853 at
+  rtol 1e-9; on the quick jobs BDF and Radau took 1.4-5x and 5-11x LSODA's time at the
+  same rtol (1e-10 .. 1e-12).
 
 Times are CPU seconds of the process (hgo's worker thread included; ``process_time``), the
 ratios those of CPU times: on this shared 2-core machine the wall time of a 3 ms run
 depends on the other processes (the wall times and their ratios are printed too; on an
-idle machine both agree). ``ratio_dop853`` (same method, same settings) is the row's
-speedup; ``ratio_fastest`` is against the fastest setting above whose error is <= hgo's.
-Errors: max |[x, x^] - reference| over the grid and the jobs, the reference being hgo's
-DOP853 at rtol 1e-12 / atol 1e-14 (within 3e-10 of Radau at rtol 1e-13 on Fig. 1,
-``tests/test_moreno_numerics.py``; at rtol 1e-13 the engine stops with a step-size
-underflow at the pulse's corner t = 5 s, which it does not cut). hgo's largest error is on
-the pulse input (its corners at 5 and 5.5 s, which solve_ivp restarts at and hgo steps
-over; 1e-9 or less on the bad and sin inputs). ``--quick``: 7 of the 30 jobs.
+idle machine both agree). ``ratio_dop853`` (same method and settings, plain right-hand
+side) is the row's speedup: the issue names no method for Moreno and a fixed explicit
+one (RK45) for the other papers, and DOP853 is the faster of solve_ivp's explicit pairs
+here. ``ratio_fastest`` is against the fastest setting above whose error is <= hgo's
+(LSODA at rtol 1e-11). Errors: max |[x, x^] - reference| over the grid and the jobs, the
+reference being hgo's DOP853 at rtol 1e-12 / atol 1e-14 (within 3e-10 of Radau at rtol
+1e-13 on Fig. 1, ``tests/test_moreno_numerics.py``; at rtol 1e-13 the engine stops with a
+step-size underflow at the pulse's corner t = 5 s, which it does not cut). hgo's largest
+errors are on the pulse input (up to 4.8e-8: its corners at 5 and 5.5 s, which solve_ivp
+restarts at and hgo steps over) and on x2 = 5 sin t (up to 1.3e-8); 6e-10 on the others.
+
+Where hgo's time goes (one job, x2 = 2 sin t, in-process CPU medians): 2.55 ms for the
+compiled integration, of which ~40 % in libm's sincos (the input's sin and cos at every
+stage and output: ~105k calls), 4,300 steps of 12 evaluations (h_max-bound: 40 s /
+0.01 s) plus 3 more per step for DOP853's dense output, and ~10 % in evaluating it at the
+40,000 outputs; plus ~0.15 ms of Python and the worker thread. Up to 2026-11-24 every
+run also mapped its ~3 MB of fresh record arrays page by page (~770 page faults,
+~1.2 ms); ``simulate`` now allocates them as one block, which the next run reuses.
+``--quick``: 7 of the 30 jobs.
 """
 
 from __future__ import annotations
