@@ -8,8 +8,8 @@ import pytest
 
 from hgo.claims import run_in_memory
 from hgo.config import compose
-from hgo.papers.moreno.reference import reference_run
-from hgo.runner import simulate_config
+from hgo.papers.moreno.reference import joint_rhs, plain_rhs, reference_run
+from hgo.runner import build, simulate_config
 
 FIG1 = ("experiment=moreno_fig1",)
 
@@ -70,3 +70,19 @@ def test_certificate_metrics_do_not_depend_on_the_output_grid():
     coarse, fine = rows(1e-3), rows(1e-4)
     for k in keys:
         assert abs(coarse[k] - fine[k]) <= max(0.01 * abs(fine[k]), 1e-9), k
+
+
+@pytest.mark.parametrize("controller", ["moreno_bad", "moreno_pulse", "moreno_sin5"])
+def test_plain_baseline_rhs_equals_the_numpy_one(controller):
+    """The benchmark's plain-float right-hand side of [x, x^] is joint_rhs's to round-off
+    (a = 0.5, l2 = 20, states and times drawn at random, the pulse's ramp included)."""
+    exp = build(compose(["experiment=moreno_pe", "postprocess=none", "plant.a=0.5",
+                         "observer.circle.L=[200.0,20.0]", f"controller={controller}"]))
+    obs, ctrl = exp.system.observers[0], exp.system.controller
+    numpy_rhs = joint_rhs(obs, ctrl, 0.5, with_error=False)
+    plain = plain_rhs(obs, ctrl, 0.5)
+    rng = np.random.default_rng(1)
+    for t, w in zip(rng.uniform(0.0, 10.0, 300), rng.normal(0.0, 50.0, (300, 4)), strict=True):
+        expected = numpy_rhs(t, w)
+        np.testing.assert_allclose(plain(t, w), expected, rtol=1e-14,
+                                   atol=1e-14 * np.max(np.abs(expected)))
