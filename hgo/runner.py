@@ -168,7 +168,8 @@ def solver_settings(cfg: DictConfig) -> SolverSettings:
         t_end=s.t_end, dt_out=s.dt_out, method=s.method, h_max=s.h_max, rtol=s.rtol,
         atol=s.atol, state_bound=s.state_bound, window=cfg.metrics.window,
         stability_safety=s.stability_safety, max_steps=s.get("max_steps", 10 ** 9),
-        max_output_rows=s.get("max_output_rows", 10 ** 8))
+        max_output_rows=s.get("max_output_rows", 10 ** 8),
+        split_observers=s.get("split_observers", False))
     settings.validate()
     return settings
 
