@@ -31,7 +31,7 @@ from hgo.components import Controller, Observer, Plant
 from hgo.console import compact_table
 from hgo.decimate import check_recording, write_run_recording
 from hgo.engine.jit import compile_timer
-from hgo.engine.simulate import INTERRUPTED, SolverSettings, Trajectory, simulate
+from hgo.engine.simulate import INTERRUPTED, SolverSettings, Trajectory, check_split, simulate
 from hgo.engine.system import System
 from hgo.errors import ConfigError
 from hgo.metrics import metrics_table, status_word
@@ -210,6 +210,7 @@ def build(cfg: DictConfig) -> Experiment:
     figure_settings(cfg)
     recording_settings(cfg)
     system = build_system(cfg)
+    check_split(system, solver)
     noise = _instantiate(cfg.noise, "noise", NoiseModel)
     noise.check_channels(len(system.plant.output_names))
     post = build_postprocessors(cfg, system, solver)
