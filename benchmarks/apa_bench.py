@@ -19,9 +19,11 @@ hgo at rtol 1e-12, atol 1e-14 (a tighter integration of the same problem); a sta
 matched when its solve_ivp error is <= max(hgo's, 1e-12) (L of the df2max observer is
 constant: 0 in both). The printed error is the max over the 11 states.
 
-Measured (2026-11-25, 2 cores, load 4-5): hgo 0.055 s CPU, error 1.5e-4; RK45 needs rtol
-1e-9 (at 1e-8 the plant states, 1.7e-8 against hgo's 5.1e-9, and x^2 of the Omega1 observer,
-8.1e-7 against 7.2e-7, are less accurate): 33.4 s CPU, error 7.2e-6; 605x CPU, 466x wall.
+Measured (2026-11-25, 2 cores, load 4-5, two runs): hgo 0.055 / 0.054 s CPU, error 1.5e-4 /
+1.6e-4 (the df2max observer's x^2: round-off differences between compilations of the kernel,
+amplified by its kinks' step rejections); RK45 needs rtol 1e-9 (at 1e-8 the plant states,
+1.7e-8 against hgo's 5e-9 to 1e-8, and x^2 of the Omega1 observer, 8.1e-7 against 7.2e-7,
+are less accurate): 33.4 / 32.7 s CPU, error 7.2e-6; 605x / 610x CPU, 466x / 409x wall.
 Before the split: hgo 0.165 s, 211x. hgo's time: the df2max observer 29 ms (its x^2 crosses
 its saturation bounds ~2.3 times per noise sample, each kink ~5 rejected trials), Omega1 4
 ms, Omega2 8 ms, building the system ~14 ms.
