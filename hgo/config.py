@@ -72,6 +72,7 @@ class SolverConf:
     stability_safety: float = 0.9
     max_steps: int = 1_000_000_000  # a run stops (failed) after this many steps
     max_output_rows: int = 100_000_000  # larger output grids are refused before the run
+    split_observers: bool = False  # each observer with its own copy of the plant
 
 
 @dataclass

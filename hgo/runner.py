@@ -31,7 +31,7 @@ from hgo.components import Controller, Observer, Plant
 from hgo.console import compact_table
 from hgo.decimate import check_recording, write_run_recording
 from hgo.engine.jit import compile_timer
-from hgo.engine.simulate import INTERRUPTED, SolverSettings, Trajectory, simulate
+from hgo.engine.simulate import INTERRUPTED, SolverSettings, Trajectory, check_split, simulate
 from hgo.engine.system import System
 from hgo.errors import ConfigError
 from hgo.metrics import metrics_table, status_word
@@ -168,7 +168,8 @@ def solver_settings(cfg: DictConfig) -> SolverSettings:
         t_end=s.t_end, dt_out=s.dt_out, method=s.method, h_max=s.h_max, rtol=s.rtol,
         atol=s.atol, state_bound=s.state_bound, window=cfg.metrics.window,
         stability_safety=s.stability_safety, max_steps=s.get("max_steps", 10 ** 9),
-        max_output_rows=s.get("max_output_rows", 10 ** 8))
+        max_output_rows=s.get("max_output_rows", 10 ** 8),
+        split_observers=s.get("split_observers", False))
     settings.validate()
     return settings
 
@@ -209,6 +210,7 @@ def build(cfg: DictConfig) -> Experiment:
     figure_settings(cfg)
     recording_settings(cfg)
     system = build_system(cfg)
+    check_split(system, solver)
     noise = _instantiate(cfg.noise, "noise", NoiseModel)
     noise.check_channels(len(system.plant.output_names))
     post = build_postprocessors(cfg, system, solver)

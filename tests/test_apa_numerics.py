@@ -1,13 +1,14 @@
 """Andrieu, Praly & Astolfi runs: convergence under refinement and grid-independent metrics.
 
 Integrator in force (apa_fig2): DOP853 with error control, rtol 1e-8, atol 1e-10, steps cut
-at every noise sample (Delta = 0.01). The right-hand side is locally Lipschitz: the
-correction powers are >= 1 (10 and 1.9 for the Omega2 observer, 1 for the others), the powers
-< 1 of Omega2 (x2^0.1, x^2s^0.9) act on saturated arguments >= x2lo(y_s) > 0, and the
-saturations are Lipschitz kinks; the input switches (10, 20, 35) are multiples of Delta
-(cut there) with noise, and resolved by step rejection without (noise-free presets). Near
-s = 0 the term s^1.9 has a Hoelder-continuous derivative only: the method loses order
-there, not convergence, which is what the refinement checks.
+at every noise sample (Delta = 0.01), each observer with its own copy of the plant
+(``solver.split_observers``: the refinement below checks the split runs). The right-hand
+side is locally Lipschitz: the correction powers are >= 1 (10 and 1.9 for the Omega2
+observer, 1 for the others), the powers < 1 of Omega2 (x2^0.1, x^2s^0.9) act on saturated
+arguments >= x2lo(y_s) > 0, and the saturations are Lipschitz kinks; the input switches (10,
+20, 35) are multiples of Delta (cut there) with noise, and resolved by step rejection
+without (noise-free presets). Near s = 0 the term s^1.9 has a Hoelder-continuous derivative
+only: the method loses order there, not convergence, which is what the refinement checks.
 """
 
 from __future__ import annotations

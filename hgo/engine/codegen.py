@@ -136,7 +136,7 @@ def _header(system: System, names: dict) -> str:
         k = ctrl_obs
         zk, dk, pk = obs_args(k)
         xc = _v("w", ny + nu, ny + nu + n_xc)
-        if _reads(system.controller.u, 1):  # (an open-loop input ignores the estimate)
+        if reads_estimate(system):  # (an open-loop input ignores the estimate)
             lines.append(f"    {names['obs'][k][2]}(t, {zk}, {dk}, {pk}, {xc})")
         lines.append(f"    {names['ctrl']}(t, {xc}, {y}, {_v('P', *ps[-1])}, {u})")
     lines += ["", "", "@ijit", signals_y[0].replace("_signals(", "_signals_y("),
@@ -176,6 +176,12 @@ def _header(system: System, names: dict) -> str:
             lines.append(f"    rho = max(rho, {fn}(t, {zk}, {dk}, {pk}))")
     lines.append("    return rho")
     return "\n".join(lines) + "\n\n"
+
+
+def reads_estimate(system: System) -> bool:
+    """Whether the controller's input may depend on its observer's estimate (the
+    argument ``xhat`` of ``u``): False for no controller or an open-loop input."""
+    return system.controller is not None and _reads(system.controller.u, 1)
 
 
 def _reads(fn: object, index: int) -> bool:

@@ -13,6 +13,13 @@ Integrator settings (:class:`SolverSettings`):
   event handling; fewer steps than ``dopri5`` at tight tolerances (about half the right-
   hand-side evaluations of problem B at equal accuracy, ``benchmarks/``).
 
+``split_observers=True`` integrates each observer with its own copy of the plant, under its
+own error control (and its own RK4 step cap), when no observer feeds the input: a stiff
+observer's short steps then do not cost the others, as the Andrieu, Praly & Astolfi notes
+ask (spec section 12; ``apa_fig2`` 0.165 -> 0.055 s, ``benchmarks/apa_bench.py``). The
+plant, y and u reported are the first observer's copy. Ensembles split too (adaptive
+methods only).
+
 Units: time in seconds of simulated time; states in the plant's own units.
 """
 
@@ -22,7 +29,7 @@ import math
 import pickle
 import threading
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -30,6 +37,7 @@ from hgo.engine.codegen import (
     damaged_cache_file,
     forget_kernel,
     load_kernel,
+    reads_estimate,
     remove_cache_entry,
 )
 from hgo.engine.system import System
@@ -62,6 +70,7 @@ class SolverSettings:
     stability_safety: float = 0.9
     max_steps: int = 10 ** 9  # a run stops (failed) after this many integration steps
     max_output_rows: int = 10 ** 8  # runs recording more output rows are refused up front
+    split_observers: bool = False  # each observer with its own copy of the plant (module doc)
 
     def validate(self) -> None:
         """Every setting in its range (keys named as in the config: solver.*, metrics.*)."""
@@ -84,6 +93,9 @@ class SolverSettings:
             value = getattr(self, key)
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
                 raise ConfigError(f"solver.{key}", f"must be an integer >= 1, got {value!r}")
+        if not isinstance(self.split_observers, (bool, np.bool_)):
+            raise ConfigError("solver.split_observers", "must be true or false, got "
+                              f"{self.split_observers!r}")
         ratio = self.t_end / self.dt_out
         if ratio > self.max_output_rows:
             raise ConfigError("solver.dt_out", f"the run records {ratio + 1:.3g} output rows "
@@ -277,14 +289,16 @@ def simulate(system: System, solver: SolverSettings, noise: Noise,
     """Integrate one run and record every signal on the grid ``k * solver.dt_out``."""
     solver.validate()
     _check_noise(system, [noise])
-    args = _common_args(system, solver, noise)
-    n_out = int(round(solver.t_end / solver.dt_out)) + 1
-    ny, nu = noise.samples.shape[1], len(system.plant.input_names)
     z = (system.z0() if z0 is None else np.asarray(z0, float)).copy()
     if z.shape != (system.nz,):  # the kernel is generated for this state length
         raise ValueError(f"z0 must have shape ({system.nz},), got {z.shape}")
-    d = system.d0()
     P = system.params() if params is None else np.asarray(params, float)
+    if solver.split_observers and len(system.observers) > 1:
+        return _simulate_split(system, solver, noise, P, z)
+    args = _common_args(system, solver, noise)
+    n_out = int(round(solver.t_end / solver.dt_out)) + 1
+    ny, nu = noise.samples.shape[1], len(system.plant.input_names)
+    d = system.d0()
     t, *rec = _record_arrays(n_out, (1, system.nz, system.nd, ny, ny, nu, system.nxh))
     acc = np.zeros(system.n_acc())
     status, n_rec, t_stop = _call(
@@ -313,6 +327,89 @@ def _record_arrays(n_out: int, widths: tuple[int, ...]) -> list[np.ndarray]:
                                                             strict=True)]
 
 
+@dataclass(frozen=True)
+class _Part:
+    """One observer with its own copy of the plant (``split_observers``): its system and
+    the indices of its entries in the whole system's z, d, P, xh and metric vectors."""
+
+    system: System
+    z: np.ndarray
+    d: np.ndarray
+    p: np.ndarray
+    xh: np.ndarray
+    acc: np.ndarray
+
+
+def check_split(system: System, solver: SolverSettings) -> None:
+    """``split_observers`` (with several observers) is refused when the input depends on
+    an estimate: the observer feeding the controller drives the plant, so the parts would
+    not be independent."""
+    ctrl = system.controller
+    if not (solver.split_observers and len(system.observers) > 1):
+        return
+    if reads_estimate(system) or (ctrl is not None and ctrl.reads_estimate):
+        raise ConfigError("solver.split_observers", "the controller reads an observer's "
+                          "estimate, so the observers are coupled through the input", "false")
+
+
+def _parts(system: System, solver: SolverSettings) -> list[_Part]:
+    """One part per observer (:func:`check_split` first)."""
+    check_split(system, solver)
+    ctrl = system.controller
+    # (an open-loop controller reads no estimate: it may name any observer's)
+    ctrl = None if ctrl is None else replace(ctrl, observer=None)
+    ctrl_p = [] if ctrl is None else [np.arange(*system.p_slices[-1])]
+    n_xh, n_obs = system.nxh, len(system.observers)
+    parts = []
+    for k, obs in enumerate(system.observers):
+        xh = np.arange(*system.xh_slices[k])
+        parts.append(_Part(
+            System(system.plant, [obs], ctrl),
+            z=np.r_[np.arange(*system.z_slices[0]), np.arange(*system.z_slices[k + 1])],
+            d=np.arange(*system.d_slices[k]),
+            p=np.concatenate([np.arange(*system.p_slices[0]),
+                              np.arange(*system.p_slices[k + 1]), *ctrl_p]),
+            xh=xh,
+            # the metric vector: xh integrals, output-error integral, max norm, window
+            acc=np.r_[xh, n_xh + k, n_xh + n_obs + k, n_xh + 2 * n_obs]))
+    return parts
+
+
+def _simulate_split(system: System, solver: SolverSettings, noise: Noise, P: np.ndarray,
+                    z: np.ndarray) -> Trajectory:
+    """Each part integrated on its own (its own RK4 step cap too), then put back in the
+    layout of ``system`` (:func:`_merge`); an interruption skips the parts after it."""
+    whole = replace(solver, split_observers=False)
+    runs = []
+    parts = _parts(system, solver)
+    for part in parts:
+        runs.append(simulate(part.system, whole, noise, P[part.p], z[part.z]))
+        if runs[-1].status == INTERRUPTED:
+            break
+    return _merge(system, parts, runs)
+
+
+def _merge(system: System, parts: list[_Part], runs: list[Trajectory]) -> Trajectory:
+    """The parts' runs in the layout of ``system``: the plant, y, m and u of the first
+    part; the run stops where its earliest part stopped, with the first failing part's
+    status; the columns of parts not run (after an interruption) are NaN."""
+    n = min(len(run.t) for run in runs)
+    first = runs[0]
+    out = Trajectory(first.t[:n], np.full((n, system.nz), np.nan),
+                     np.full((n, system.nd), np.nan), first.y[:n], first.m[:n], first.u[:n],
+                     np.full((n, system.nxh), np.nan),
+                     next((run.status for run in runs if run.status != 0), 0),
+                     min(run.t_stop for run in runs), np.full(system.n_acc(), np.nan))
+    nx = system.plant.nx
+    out.z[:, :nx] = first.z[:n, :nx]
+    for part, run in zip(parts, runs, strict=False):
+        out.z[:, part.z[nx:]] = run.z[:n, nx:]
+        out.d[:, part.d] = run.d[:n]
+        out.xh[:, part.xh] = run.xh[:n]
+        out.acc[part.acc] = run.acc
+    return out
+
+
 def simulate_ensemble(system: System, solver: SolverSettings, noise: list[Noise] | Noise,
                       params: np.ndarray, z0: np.ndarray,
                       d0: np.ndarray | None = None, rho: np.ndarray | None = None,
@@ -327,7 +424,8 @@ def simulate_ensemble(system: System, solver: SolverSettings, noise: list[Noise]
     the steps of its single run); default: ``system``'s for all.
     Returns ``acc`` (M, n_acc) window integrals, ``status`` (M,) and ``t_stop`` (M,); with
     ``record=True`` also ``trajectories``: one :class:`Trajectory` per member (memory:
-    M x n_out x all signals).
+    M x n_out x all signals). ``solver.split_observers``: one ensemble per observer, merged
+    per member as a single run's parts are (adaptive methods only).
     """
     solver.validate()
     params = np.ascontiguousarray(params, float)
@@ -343,6 +441,8 @@ def simulate_ensemble(system: System, solver: SolverSettings, noise: list[Noise]
     d0 = np.tile(system.d0(), (n, 1)) if d0 is None else np.ascontiguousarray(d0, float)
     if d0.shape != (n, system.nd):
         raise ValueError(f"d0 must have shape ({n}, {system.nd}), got {d0.shape}")
+    if solver.split_observers and len(system.observers) > 1:
+        return _ensemble_split(system, solver, members, params, z0, d0, record)
     args = list(_common_args(system, solver, members[0]))
     rho = np.full(n, args[7]) if rho is None else np.ascontiguousarray(rho, float)
     if rho.shape != (n,):
@@ -364,6 +464,35 @@ def simulate_ensemble(system: System, solver: SolverSettings, noise: list[Noise]
             Trajectory(t[:k], *(r[i, :k] for r in recs), int(status[i]), float(t_stop[i]),
                        acc[i]) for i, k in enumerate(n_rec)]
     return out
+
+
+def _ensemble_split(system: System, solver: SolverSettings, members: list[Noise],
+                    params: np.ndarray, z0: np.ndarray, d0: np.ndarray, record: bool) -> dict:
+    """``split_observers`` in an ensemble: each part an ensemble of its own, the members'
+    parts merged as :func:`_merge` does. RK4 is refused: the members' step caps (``rho``)
+    are their whole systems', while a split single run caps each part by its own."""
+    if solver.method == "rk4":
+        raise ConfigError("solver.split_observers", "an RK4 ensemble caps each member's "
+                          "steps by its whole system's stiffness; split ensembles run with "
+                          "the adaptive methods", "false, or solver.method dopri5/dop853")
+    whole = replace(solver, split_observers=False)
+    parts, outs = _parts(system, solver), []
+    for part in parts:
+        outs.append(simulate_ensemble(part.system, whole, members, params[:, part.p],
+                                      z0[:, part.z], d0[:, part.d], record=record))
+        if np.any(outs[-1]["status"] == INTERRUPTED):
+            break
+    acc = np.full((len(params), system.n_acc()), np.nan)
+    status = np.zeros(len(params), dtype=np.int64)
+    for part, out in zip(parts, outs, strict=False):
+        acc[:, part.acc] = out["acc"]
+        status = np.where(status != 0, status, out["status"])
+    merged = {"acc": acc, "status": status,
+              "t_stop": np.min([out["t_stop"] for out in outs], axis=0)}
+    if record:
+        merged["trajectories"] = [_merge(system, parts, [out["trajectories"][i] for out in outs])
+                                  for i in range(len(params))]
+    return merged
 
 
 def no_noise(ny: int) -> Noise:

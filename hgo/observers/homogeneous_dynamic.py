@@ -202,8 +202,9 @@ def homogeneous_dynamic_hgo(name: str, rate_bound: str = "omega2", p: float = 0.
     hom = correction == "homogeneous"
     c = linear_gains(2, p, ell, hom)
     roots = np.roots(np.concatenate([[1.0], c]))
-    _check(bool(np.all(roots.real < 0)), f"{key}: the linear part of the correction is not "
-           f"Hurwitz (roots {roots})")
+    if not np.all(roots.real < 0):  # (the message formats an array: only when it fails)
+        raise ValueError(f"{key}: the linear part of the correction is not Hurwitz (roots "
+                         f"{roots})")
     params = np.array([p, b, phi1, phi2, phi3, ell, RATE_BOUNDS[rate_bound],
                        gain == "dynamic", hom, hbar, eps1, eps2, dfmax,
                        float(np.max(np.abs(roots)))], float)
