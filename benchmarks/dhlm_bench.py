@@ -22,26 +22,27 @@ Two rows, both at equal or better accuracy for hgo (as in benchmarks/README.md, 
 
 Horizon 20 s (quick: 5 s).
 
-What bounds the ratio (``dhlm_analysis.py``, 2026-11-25, 2 cores shared with other jobs:
-times at load 1.4-1.8 unless said; evaluation counts do not depend on load):
+What bounds the ratio (``dhlm_analysis.py``, 2026-11-25 13:08, 2 cores shared with other
+jobs, load 1.4-1.6; evaluation counts do not depend on load):
 
 * hgo's time is the integration, not fixed overhead. DOP853 rtol 1e-9: ``run_experiment``
-  7.6 ms, the compiled ``integrate`` 7.4 ms of it; outside it 0.13-0.24 ms (composing the
-  arrays, ~0.04 ms handing the run to the worker thread of ``hgo.engine.simulate``). Under
-  load ~4 that hand-off waits for a core: 4-6 ms outside ``integrate`` (a 9 ms nogil loop
-  measured alone: +3.5 ms through the worker thread), so ratios taken under load are low.
-  The 20,001 output samples cost 40 ns each (dense output, outputs, record, window
-  metrics): 0.8 ms.
-* Both integrators are bound by the HGO pole -4/eps = -667 1/s, not by accuracy. RK45
-  (solve_ivp, 0.27 s): 37,598 evaluations, 7.2 us each with solve_ivp's per-step work
+  8.4 ms, the compiled ``integrate`` 7.8 ms of it (dopri5 rtol 3e-9: 6.7 and 6.2 ms);
+  outside it 0.4-0.6 ms at this load, 0.13 ms with a no-op ``integrate`` (composing the
+  arrays; ~0.04 ms of it hands the run to the worker thread of ``hgo.engine.simulate``).
+  Under load ~4 that hand-off waits for a core: 4-6 ms outside ``integrate`` (a 9 ms nogil
+  loop measured alone: +3.5 ms through the worker thread), so ratios taken under load are
+  low. The 20,001 output samples cost 38 ns each (dense output, outputs, record, window
+  metrics): 0.77 ms.
+* Both integrators are bound by the HGO pole -4/eps = -667 1/s, not the slow part. RK45
+  (solve_ivp, 0.285 s): 37,598 evaluations, 7.6 us each with solve_ivp's per-step work
   (2.2 us the bare Python right-hand side). hgo DOP853 rtol 1e-9: 55,787 evaluations,
-  0.13-0.14 us each (3,887 trials of which 818 rejected: the controller hunts at the
-  stability limit |h lambda| <= 6.39, h <= 9.6 ms; 16 % of the evaluations are the 3
-  extra stages of the dense output). hgo dopri5 rtol 3e-9 (error 5.2e-8): 44,583
-  evaluations (7,427 trials, 84 rejected; limit |h lambda| <= 3.31, h <= 5.0 ms; dense
-  output free), ~15 % less time than DOP853, hence the baseline row's dopri5. The ratio is
-  ~55x per evaluation times RK45's 37.6k over hgo's 44.6k evaluations, plus the output
-  samples: ~40x.
+  0.14 us each, all of ``integrate`` counted (3,887 trials of which 818 rejected: the
+  controller hunts at the stability limit |h lambda| <= 6.39, h <= 9.6 ms; 16 % of the
+  evaluations are the 3 extra stages of the dense output). hgo dopri5 rtol 3e-9 (error
+  5.2e-8): 44,583 evaluations (7,427 trials, 84 rejected; limit |h lambda| <= 3.31,
+  h <= 5.0 ms; dense output free), 15-20 % less time than DOP853 at load <= 2.4, hence the
+  baseline row's dopri5. The ratio is ~55x per evaluation times RK45's 37.6k over hgo's
+  44.6k evaluations, less the output samples: ~40x.
 * Removing the stiffness does not remove the work: the adaptive observer's own modes reach
   -5 +- 96i 1/s (delta = 100, psi_1 = u up to 10: not stiff, but oscillating at up to
   15 Hz, to be followed to 1e-7 over 20 s). Radau (A-stable, order 5, steps bound by
@@ -53,8 +54,9 @@ times at load 1.4-1.8 unless said; evaluation counts do not depend on load):
   less integration than dopri5, ~3.7 ms with the outputs and fixed part: <= ~75x, for an
   engine change (a component-declared linear part, matrix functions, a new error control).
 * 300x is out of reach on this problem even with a free integration: the fixed part and
-  the output samples alone take ~1.0 ms against t_RK45 / 300 = 0.9 ms (``dhlm_analysis.py``
-  prints both from the same interleaved runs).
+  the output samples alone take 1.19 ms against t_RK45 / 300 = 0.95 ms (from the same
+  interleaved runs; ~1.0 against 0.9 ms in an earlier run at load 1.4), and any integration
+  of the slow part takes >= ~14,000 evaluations (the ideal-HGO run at 6e-6), ~2 ms.
 """
 
 from __future__ import annotations
