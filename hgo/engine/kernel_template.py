@@ -89,15 +89,18 @@ def _start(z, d, m, P, w, y, u, xh, sq, prev, acc, win, noise, bound, t_end, dt_
         acc[j] = 0.0
     system_update(0.0, z, d, m, P, w)
     status = _state_status(z, bound)
-    _emit(np.int64(0), 0.0, z, d, m, P, w, y, u, xh, sq, prev, acc, win, t_win0, tol,
-          Z, D, Y, M, U, XH)
+    _emit(np.int64(0), 0.0, z, d, m, P, w, y, u, xh, Z, D, Y, M, U, XH)
+    if t_win0 <= tol:  # the window is the whole horizon: it starts here
+        _point_errors(z, y, xh, sq, acc)
+        _trapezoid(0.0, sq, prev, acc, win)
     return status, n_out, tol, t_win0
 
 
 @ijit
-def _emit(k, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, t_win0, tol,
-          Z, D, Y, M, U, XH):
-    """Output sample k at time t: record it, and add it to the trailing-window metrics."""
+def _emit(k, t, z, d, m, P, w, y, u, xh, Z, D, Y, M, U, XH):
+    """Output sample k at time t: the signals, recorded when there is a record. Not a
+    point of the window metrics: they are made from the integration's own points only,
+    so they do not depend on the output grid."""
     system_outputs(t, z, d, m, P, w, y, u, xh)
     if Z.shape[0] > 0:
         for i in range(NZ):
@@ -111,29 +114,13 @@ def _emit(k, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, t_win0, tol,
             U[k, i] = u[i]
         for i in range(NXH):
             XH[k, i] = xh[i]
-    if t >= t_win0 - tol:
-        _accumulate(t, z, y, xh, sq, prev, acc, win)
 
 
 @ijit
-def _step_end(t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, t_win0, tol):
-    """A step ends at t: add the point to the window metrics (inside the window only)."""
-    if t >= t_win0 - tol:
-        system_outputs(t, z, d, m, P, w, y, u, xh)
-        _accumulate(t, z, y, xh, sq, prev, acc, win)
-
-
-@ijit
-def _accumulate(t, z, y, xh, sq, prev, acc, win):
-    """Add the point t to the trailing-window metrics (Sanfelice & Praly (11)-(12)).
-
-    Called at every step end and every output instant inside [t_end - t_window, t_end],
-    in time order: trapezoids of the squared errors between consecutive points
-    (``acc[:NXH + NOBS]``), the largest error norm ||x^ - x|| of each observer
-    (``acc[NXH + NOBS:NXH + 2 NOBS]``) and the window length (``acc[-1]``). The points are
-    the integration steps, so the metrics do not depend on the output grid. ``win[0]``
-    tells whether a previous point exists, ``win[1]`` is its time.
-    """
+def _point_errors(z, y, xh, sq, acc):
+    """The squared errors at one point into ``sq``: (x^_j - x_j)^2 per estimated state, then
+    (y^ - y)^2 per observer; and each observer's error norm ||x^ - x|| into its running
+    maximum (``acc[NXH + NOBS:NXH + 2 NOBS]``). Sanfelice & Praly (11)-(12)."""
     for j in range(NXH):
         sq[j] = (xh[j] - z[EST_MAP[j]]) ** 2 if EST_MAP[j] >= 0 else 0.0
     for k2 in range(NOBS):
@@ -145,6 +132,13 @@ def _accumulate(t, z, y, xh, sq, prev, acc, win):
             if OBS_OF[j] == k2:
                 norm2 += sq[j]
         acc[NXH + NOBS + k2] = max(acc[NXH + NOBS + k2], math.sqrt(norm2))
+
+
+@ijit
+def _trapezoid(t, sq, prev, acc, win):
+    """RK4's window integrals: the trapezoid from the previous step end (``win[1]``, if
+    ``win[0]``) to this one (errors ``sq``) into ``acc[:NXH + NOBS]``, its length into
+    ``acc[-1]``. RK4 has no continuous extension; its steps are short (stability-capped)."""
     if win[0] > 0.0:
         dt = t - win[1]
         for j in range(NXH + NOBS):
@@ -154,6 +148,15 @@ def _accumulate(t, z, y, xh, sq, prev, acc, win):
         prev[j] = sq[j]
     win[0] = 1.0
     win[1] = t
+
+
+@ijit
+def _step_end(t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, t_win0, tol):
+    """An RK4 step ends at t: a point of the window metrics (inside the window only)."""
+    if t >= t_win0 - tol:
+        system_outputs(t, z, d, m, P, w, y, u, xh)
+        _point_errors(z, y, xh, sq, acc)
+        _trapezoid(t, sq, prev, acc, win)
 
 
 @pjit
@@ -229,6 +232,9 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
             if abs(t_noise - t_out) <= tol:
                 t_noise = t_out  # coincident events: one boundary, not a sliver of a step
             t_next = min(t_out, t_noise)
+            at_window = t < t_win0 - tol and t_win0 < t_next - tol
+            if at_window:  # the window's first point is a step end
+                t_next = t_win0
             n_sub = 0  # substeps left in this segment, planned with the stiffness rho_plan
             rho_plan = -1.0
             h = 0.0
@@ -253,6 +259,8 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
                 if ctl[0] != 0:
                     return 6, k_out, t
             t = t_next
+            if at_window:
+                continue
             if t_noise <= t_out:
                 k_noise += 1
                 idx = min(k_noise, n_noise - 1)
@@ -260,8 +268,7 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
                     m[i] = noise[idx, i]
             if t_noise >= t_out:
                 break
-        _emit(k_out, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, t_win0, tol,
-              Z, D, Y, M, U, XH)
+        _emit(k_out, t, z, d, m, P, w, y, u, xh, Z, D, Y, M, U, XH)
     return 0, n_out, t
 
 
@@ -296,14 +303,35 @@ def _initial_step(t, z, d, m, P, w, k1, k2, zt, rtol, atol, h_max):
     return min(100.0 * h0, h1, h_max)
 
 
+# 3-point Gauss-Legendre on [0, 1]: exact for polynomials of degree 5
+GAUSS_NODES = np.array([0.5 - 0.5 * math.sqrt(0.6), 0.5, 0.5 + 0.5 * math.sqrt(0.6)])
+GAUSS_WEIGHTS = np.array([5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0])
+
+
+@ijit
+def _window_step(t, h, a, b, z, d, m, P, w, y, u, xh, sq, acc, F, zo):
+    """The accepted step [t, t + h] on its part [a, b] inside the metrics window: the
+    squared errors integrated by 3-point Gauss-Legendre on the step's continuous extension
+    (``F``; its order is the method's), their maxima at the nodes, the length ``b - a``.
+    Only the integration's own points: the metrics do not depend on the output grid."""
+    for q in range(3):
+        tq = a + (b - a) * GAUSS_NODES[q]
+        _dense_eval((tq - t) / h, z, F, zo)
+        system_outputs(tq, zo, d, m, P, w, y, u, xh)
+        _point_errors(zo, y, xh, sq, acc)
+        for j in range(NXH + NOBS):
+            acc[j] += (b - a) * GAUSS_WEIGHTS[q] * sq[j]
+    acc[NXH + 2 * NOBS] += b - a
+
+
 @jit
 def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, rho_const,
               bound, t_window, Z, D, Y, M, U, XH, acc, ctl):
     """Integrate one run (adaptive). Returns (status, number of output samples, stop time).
 
     One compiled function, as for RK4 (``stab`` and ``rho_const`` are unused here).
-    Without a record (an ensemble member), output instants before the metrics window
-    are skipped: nothing would read them.
+    Without a record (an ensemble member), output instants are skipped: nothing reads
+    them (the metrics are made from the steps, :func:`_window_step`).
     """
     work = np.zeros((N_K + N_F + 2) * z.shape[0] + d.shape[0] + N_COMMON_WORK)
     z, d, P, noise, acc = borrow(z), borrow(d), borrow(P), borrow(noise), borrow(acc)
@@ -364,15 +392,19 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
                 continue
             t_new = t_seg if last else t + hh
             prepared = False
+            if t_new > t_win0 + tol:  # the step overlaps the metrics window
+                _dense_prep(t, hh, z, zt, d, m, P, w, K, F, zo)
+                prepared = True
+                _window_step(t, hh, max(t, t_win0), t_new, z, d, m, P, w, y, u, xh, sq, acc,
+                             F, zo)
             while k_out < n_out and k_out * dt_out < t_new - tol:  # outputs inside the step
                 t_o = k_out * dt_out
-                if record or t_o >= t_win0 - tol:
+                if record:
                     if not prepared:
                         _dense_prep(t, hh, z, zt, d, m, P, w, K, F, zo)
                         prepared = True
                     _dense_eval((t_o - t) / hh, z, F, zo)
-                    _emit(k_out, t_o, zo, d, m, P, w, y, u, xh, sq, prev, acc, win,
-                          t_win0, tol, Z, D, Y, M, U, XH)
+                    _emit(k_out, t_o, zo, d, m, P, w, y, u, xh, Z, D, Y, M, U, XH)
                 k_out += 1
             for i in range(nz):
                 z[i] = zt[i]
@@ -391,7 +423,9 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
             status = _state_status(z, bound)
             if status != 0:
                 return status, k_out, t
-            _step_end(t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, t_win0, tol)
+            if t >= t_win0 - tol:  # the step end (after its update) for the maximum norm
+                system_outputs(t, z, d, m, P, w, y, u, xh)
+                _point_errors(z, y, xh, sq, acc)
             fac = 10.0 if err == 0.0 else min(10.0, max(0.2, 0.9 * err ** ERR_EXP))
             if retried:  # as scipy: no growth right after a rejection (B: 4 % fewer trials)
                 fac = min(1.0, fac)
@@ -401,8 +435,7 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
             if last:
                 break
             while k_out < n_out and k_out * dt_out <= t + tol:  # an output on the step end
-                _emit(k_out, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, t_win0,
-                      tol, Z, D, Y, M, U, XH)
+                _emit(k_out, t, z, d, m, P, w, y, u, xh, Z, D, Y, M, U, XH)
                 k_out += 1
         if t_seg < t_end:  # the next noise sample holds from here on
             k_noise += 1
@@ -411,7 +444,6 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
                 m[i] = noise[idx, i]
             fsal = False
         while k_out < n_out and k_out * dt_out <= t + tol:
-            _emit(k_out, t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, t_win0,
-                  tol, Z, D, Y, M, U, XH)
+            _emit(k_out, t, z, d, m, P, w, y, u, xh, Z, D, Y, M, U, XH)
             k_out += 1
     return 0, n_out, t
