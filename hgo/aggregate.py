@@ -275,7 +275,14 @@ class AggregateCallback(Callback):
 
 class SweepSummary(Callback):
     """Hydra callback (every multirun, ``conf/config.yaml``): at the end, one table of the
-    jobs with their varying overrides, status and key metric, from their ``run.json``."""
+    jobs with their varying overrides, status and key metric, from their ``run.json``.
+    At the start, the sweep's own process is set to exit quickly (a joblib sweep runs no
+    job in it; :func:`hgo.memory.skip_exit_collection`)."""
+
+    def on_multirun_start(self, config, **kwargs) -> None:
+        from hgo.memory import skip_exit_collection
+
+        skip_exit_collection()
 
     def on_multirun_end(self, config, **kwargs) -> None:
         print(sweep_summary(Path(config.hydra.sweep.dir)), flush=True)
