@@ -22,9 +22,9 @@ Rows (ratios are taken inside the same run; the machine may be shared):
   after the warm-up. Flat: the trend of the job peaks is zero within its 95 % interval
   (the sweep's peak is then the largest of equally distributed job peaks, not a growth)
   and what stays resident grows by no more than the tiny jobs' (Hydra's) per-job amount.
-* joblib: 4-job multiruns of ``sp_example`` (t_end 10,000 s, 40,000 s, 2,000 s; one job's
-  logged simulation time is printed), sequential against ``hydra/launcher=joblib`` with 2
-  workers, whole multirun wall time.
+* joblib: 4-job multiruns of ``sp_example`` (t_end 20,000 s and 40,000 s: jobs of >= 1 s;
+  one job's logged simulation time is printed), sequential against
+  ``hydra/launcher=joblib`` with 2 workers, whole multirun wall time.
 """
 
 from __future__ import annotations
@@ -32,6 +32,7 @@ from __future__ import annotations
 import argparse
 import gc
 import itertools
+import json
 import os
 import subprocess
 import sys
@@ -243,28 +244,39 @@ def memory_rows(quick: bool) -> list[list]:
 
 
 def joblib_rows(quick: bool) -> list[list]:
-    """Sequential against joblib (2 workers): 4 jobs of sp_example, t_end 10,000 s and,
-    full run only, 40,000 s and 2,000 s."""
+    """Sequential against joblib (2 workers): 4 jobs of sp_example, t_end 20,000 s (one
+    job ~1 s on an idle machine) and, full run only, 40,000 s; whole multirun wall times,
+    sequential and joblib interleaved, median of 3 pairs (1 with --quick)."""
     rows = []
-    for t_end in ([10000.0] if quick else [10000.0, 40000.0, 2000.0]):
+    reps = 1 if quick else 3
+    for t_end in ([20000.0] if quick else [20000.0, 40000.0]):
         args = ["-m", "experiment=sp_example", f"solver.t_end={t_end:g}",
                 "solver.dt_out=0.1", "recording=off", "seed=0,1,2,3"]
         with tempfile.TemporaryDirectory() as tmp:
             _wall([*RUN, *args[:-1], "seed=0", f"hydra.sweep.dir={tmp}/w"])  # compile
             job = _job_seconds([*RUN, *args[:-1], "seed=0", f"hydra.sweep.dir={tmp}/j"],
                                Path(tmp) / "j")
-            seq = _wall([*RUN, *args, f"hydra.sweep.dir={tmp}/s"])
-            par = _wall([*RUN, *args, "hydra/launcher=joblib", "hydra.launcher.n_jobs=2",
-                         f"hydra.sweep.dir={tmp}/p"])
-        rows.append([f"4 jobs of sp_example t_end={t_end:g} s", job, seq, par, seq / par])
+            seq, par = [], []
+            for k in range(reps):
+                seq.append(_wall([*RUN, *args, f"hydra.sweep.dir={tmp}/s{k}"]))
+                par.append(_wall([*RUN, *args, "hydra/launcher=joblib",
+                                  "hydra.launcher.n_jobs=2", f"hydra.sweep.dir={tmp}/p{k}"]))
+        seq_s, par_s = float(np.median(seq)), float(np.median(par))
+        rows.append([f"4 jobs of sp_example t_end={t_end:g} s", job, seq_s, par_s,
+                     seq_s / par_s, _load()])
     return rows
 
 
+def _load() -> str:
+    """The 1-minute load average now (the machine may be shared)."""
+    return f"{os.getloadavg()[0]:.1f}"
+
+
 def _job_seconds(cmd: list[str], sweep: Path) -> float:
-    """The 'simulated in' time a job logs (one job of the sweep)."""
+    """The simulation seconds a job records in its run.json (one job of the sweep)."""
     subprocess.run(cmd, cwd=ROOT, env=_env(), check=True, capture_output=True, text=True)
-    text = next(sweep.glob("*/*.log")).read_text()
-    return float(text.split("simulated in ")[1].split(" s")[0])
+    info = json.loads(next(sweep.glob("*/run.json")).read_text())
+    return float(info["seconds"]["simulate"])
 
 
 def bench(quick: bool, only: set[str] | None = None) -> dict:
@@ -298,8 +310,8 @@ def bench(quick: bool, only: set[str] | None = None) -> dict:
         rows = joblib_rows(quick)
         table("Local parallelism: 4-job multirun, sequential against joblib (2 workers)",
               ["sweep", "one job's simulation (s)", "sequential (s)", "joblib n_jobs=2 (s)",
-               "speedup"], rows)
-        out.update(joblib_speedup=rows[0][-1])
+               "speedup", "load average"], rows)
+        out.update(joblib_speedup=rows[0][-2])
     return out
 
 

@@ -347,3 +347,21 @@ def test_member_nodes_take_the_fast_path_unless_a_target_is_nested():
     assert not _has_nested_target({"K": [2.0, 2.0], "M": [[3.0, 0.0], [0.0, 0.0]], "c": None})
     assert _has_nested_target({"K": [2.0, {"x": [{"_target_": "a.b"}]}]})
     assert _has_nested_target({"inner": {"_target_": "a.b"}})
+
+
+def test_sweep_summary_drops_each_jobs_configs_from_hydras_job_return(compose, tmp_path):
+    """Hydra keeps every JobReturn until a sweep ends; in a multirun the last callback to
+    see a job drops its configs (a single run keeps them)."""
+    from hydra.core.utils import JobReturn, JobStatus
+    from hydra.types import RunMode
+
+    from hgo.aggregate import SweepSummary
+
+    cfg = compose(["experiment=sp_example"], tmp_path)
+    for mode, kept in ((RunMode.RUN, True), (RunMode.MULTIRUN, False)):
+        hydra_node = OmegaConf.create({"hydra": {"mode": mode}})
+        ret = JobReturn(cfg=cfg, hydra_cfg=hydra_node, status=JobStatus.COMPLETED,
+                        _return_value=7)
+        SweepSummary().on_job_end(hydra_node, ret)
+        assert (ret.cfg is not None, ret.hydra_cfg is not None) == (kept, kept)
+        assert ret.return_value == 7
