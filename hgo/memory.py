@@ -5,8 +5,8 @@ series, Rerun's Arrow buffers). glibc keeps much of it in its heaps after it is 
 its mmap threshold rises to the size of the largest block freed (up to 32 MB), so later
 arrays of a few MB come from the heap and the heap's free pages stay resident. In a
 40-job sweep of 1e6-sample runs (``benchmarks/sweeps_bench.py``, memory row) the process
-kept ~545 MB resident between jobs and peaked at 840-950 MB per job; with
-``malloc_trim`` after every job, ~450 MB and 820-890 MB.
+kept ~543 MB resident between jobs and peaked at 838-953 MB per job; with
+``malloc_trim`` after every job, ~446 MB and 821-893 MB.
 
 :func:`skip_exit_collection`: at exit the interpreter's garbage collector walks every
 object still alive (hundreds of thousands once numba, pandas, matplotlib and Rerun are
