@@ -99,7 +99,7 @@ def triangular_hgo(name: str, K: Sequence[float], xhat0: Sequence[float], r0: fl
     _check(law in LAWS, f"observer.{name}.law: '{law}' not in {sorted(LAWS)}")
     _check(len(xhat0) == n, f"observer.{name}.xhat0 must have n={n} entries, got {len(xhat0)}")
     _check(M.shape == (n, n), f"observer.{name}.M must be {n}x{n}, got {M.shape}")
-    # |M_ij| <= 1e-8 above the diagonal (np.allclose(M, np.tril(M)) at a tenth of its cost:
+    # |M_ij| <= 1e-8 above the diagonal (np.allclose(M, np.tril(M)) at a quarter of its cost:
     # one observer per member of an ensemble)
     _check(not (np.abs(np.triu(M, 1)) > 1e-8).any(),
            f"observer.{name}.M must be lower triangular (form (3))")
