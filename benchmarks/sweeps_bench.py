@@ -239,7 +239,8 @@ def memory_rows(quick: bool) -> list[list]:
                          " / ".join(f"{peaks[m]:.0f}" for m in marks), float(peaks.max()),
                          f"{100 * slope:+.1f} ± {100 * half:.1f}",
                          " / ".join(f"{resident[m]:.0f}" for m in marks),
-                         f"{1024 * r_slope:+.0f} ± {1024 * r_half:.0f}"])
+                         f"{1024 * r_slope:+.0f} ± {1024 * r_half:.0f}",
+                         "yes" if abs(slope) <= half else "no"])
     return rows
 
 
@@ -304,7 +305,8 @@ def bench(quick: bool, only: set[str] | None = None) -> dict:
               f"after it, at jobs 1 / {WARM_UP} / half / last; trends fitted over jobs "
               f"{WARM_UP + 1}..N (least squares, ± 95 %)",
               ["sweep", "wall (s)", "job peak", "sweep peak", "job peak trend (MB per 100 "
-               "jobs)", "resident after job", "resident trend (KB per job)"], rows)
+               "jobs)", "resident after job", "resident trend (KB per job)",
+               "flat: no job-peak trend (0 within ± 95 %)"], rows)
         out.update(sweep_peak_mb=rows[0][3])
     if only is None or "joblib" in only:
         rows = joblib_rows(quick)
