@@ -16,18 +16,24 @@ Rows (ratios are taken inside the same run; the machine may be shared):
   envelope into 2^14 rows, :mod:`hgo.decimate`, envelope included), against the
   simulation.
 * memory: a Hydra sweep of 1,000,001-sample runs (S-P ``sp_example``, 100 s output every
-  0.1 ms, full recordings), peak RSS of the sweep process after jobs 1, 10, ..., N
-  (``ru_maxrss`` read by a callback at each job end); flat = the last over the first.
-* joblib: 4-job multiruns of ``sp_example`` (t_end 10,000 s, 40,000 s, 2,000 s; one job's
-  logged simulation time is printed), sequential against ``hydra/launcher=joblib`` with 2
-  workers, whole multirun wall time.
+  0.1 ms, full recordings) and, full run only, the same number of tiny jobs (what Hydra
+  and hgo keep per job): each job's own peak resident size (the process's peak is reset
+  at every job start) and the resident size after it, with their trends over the jobs
+  after the warm-up. Flat: the trend of the job peaks is zero within its 95 % interval
+  (the sweep's peak is then the largest of equally distributed job peaks, not a growth)
+  and what stays resident grows by no more than the tiny jobs' (Hydra's) per-job amount.
+* joblib: 4-job multiruns of ``sp_example`` (t_end 20,000 s and 40,000 s: jobs of >= 1 s;
+  one job's logged simulation time is printed), sequential against
+  ``hydra/launcher=joblib`` with 2 workers, whole multirun wall time.
 """
 
 from __future__ import annotations
 
 import argparse
+import gc
+import itertools
+import json
 import os
-import resource
 import subprocess
 import sys
 import tempfile
@@ -130,78 +136,148 @@ def recording_rows(quick: bool) -> list[list]:
             def full(path=path, tr=tr, series=series):
                 write_recording(path, tr.t, series, recording_id="bench")
 
-            def decimated(path=path, tr=tr, series=series):
+            fresh = itertools.count()
+
+            def decimated(tmp=tmp, tr=tr, series=series, fresh=fresh):
+                # a new file each time, as a run writes (replacing the last one would add
+                # its unlinking, 1-2 ms here, to a write that takes a few ms)
                 t_d, s_d = envelope(tr.t, series, DECIMATED_ROWS)
-                write_recording(path, t_d, s_d, recording_id="bench")
+                return write_recording(Path(tmp) / f"dec{next(fresh)}.rrd", t_d, s_d,
+                                       recording_id="bench")
 
             # the cheap pair interleaved (same conditions), the full write apart: its
             # release of ~240 MB of Arrow buffers would land in the next timing
-            (t_sim, _), (t_dec, _) = b.interleaved_median_times(
+            (t_sim, _), (t_dec, dec_path) = b.interleaved_median_times(
                 [lambda s=system, so=solver, n=noise: simulate(s, so, n), decimated],
                 3 * b.FAST_REPS // 5 if quick else b.FAST_REPS)
-            size_dec = path.stat().st_size
+            size_dec = dec_path.stat().st_size
             (t_full, _), = b.interleaved_median_times([full], reps)
         rows.append([label, t_sim, t_full, t_full / t_sim, t_dec, t_dec / t_sim,
                      size_dec / 1e6])
     return rows
 
 
+def _proc_status_kb(key: str) -> int:
+    """A ``kB`` field of /proc/self/status (``VmHWM``: peak resident, ``VmRSS``: resident)."""
+    with open("/proc/self/status") as fh:
+        return next(int(line.split()[1]) for line in fh if line.startswith(key + ":"))
+
+
 class PeakRSS(Callback):
-    """Hydra callback: appends ``job_number peak_rss_kB`` of this process at each job end."""
+    """Hydra callback: appends ``job_number job_peak_kB resident_after_kB`` at each job end.
+
+    The job's own peak: the process's peak resident size is reset when the job starts
+    (``5`` to /proc/self/clear_refs, Linux), so each job's peak is measured on its own
+    and a trend over the jobs shows; the sweep's peak is the largest of them. Resident
+    after the job: after the job's arrays are freed and a garbage collection, what the
+    process keeps from one job to the next."""
 
     def __init__(self, path: str) -> None:
         self.path = path
 
+    def on_job_start(self, config, **kwargs) -> None:
+        with open("/proc/self/clear_refs", "w") as fh:
+            fh.write("5")
+
     def on_job_end(self, config, job_return, **kwargs) -> None:
-        rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+        peak = _proc_status_kb("VmHWM")
+        gc.collect()
         with open(self.path, "a") as fh:
-            fh.write(f"{config.hydra.job.num} {rss}\n")
+            fh.write(f"{config.hydra.job.num} {peak} {_proc_status_kb('VmRSS')}\n")
+
+
+def _trend(y: np.ndarray) -> tuple[float, float]:
+    """Least-squares slope of y over its index, and its 95 % half-width (normal)."""
+    x = np.arange(len(y), dtype=float)
+    slope, intercept = np.polyfit(x, y, 1)
+    residuals = y - (slope * x + intercept)
+    se = np.sqrt(residuals @ residuals / (len(y) - 2) / ((x - x.mean()) @ (x - x.mean())))
+    return float(slope), float(1.96 * se)
+
+
+def _sweep_memory(tmp: str, name: str, n_jobs: int, overrides: list[str]) -> tuple:
+    """(wall s, job peaks MB, resident after each job MB, first job's recording MB)."""
+    log = Path(tmp) / f"{name}.txt"
+    t0 = time.perf_counter()
+    subprocess.run([*RUN, "-m", *overrides, f"seed=range({n_jobs})",
+                    f"hydra.sweep.dir={tmp}/{name}",
+                    "+hydra.callbacks.rss._target_=sweeps_bench.PeakRSS",
+                    f"+hydra.callbacks.rss.path={log}"],
+                   cwd=ROOT, env=_env(), check=True, capture_output=True, text=True)
+    wall = time.perf_counter() - t0
+    rows = np.loadtxt(log, dtype=np.int64).reshape(-1, 3)
+    rows = rows[np.argsort(rows[:, 0])]
+    rrd = Path(tmp) / name / "job0" / "recording.rrd"
+    return wall, rows[:, 1] / 1024, rows[:, 2] / 1024, rrd.stat().st_size / 1e6 if \
+        rrd.exists() else 0.0
+
+
+WARM_UP = 10  # jobs before the trends are fitted (imports, caches, the first kernels)
 
 
 def memory_rows(quick: bool) -> list[list]:
+    """A sweep of 1e6-sample runs, and (full run only) the same number of tiny jobs: the
+    per-job peaks and what stays resident between jobs, with their trends after
+    :data:`WARM_UP` jobs."""
     n_jobs = 20 if quick else 100
+    sweeps = [("big", "1,000,001 samples (sp_example, full recordings)",
+               ["experiment=sp_example", "solver.t_end=100", "solver.dt_out=0.0001",
+                "metrics.window=25"])]
+    if not quick:
+        sweeps.append(("tiny", "tiny jobs (sp_example, 1 s, no recording)",
+                       ["experiment=sp_example", "solver.t_end=1", "metrics.window=0",
+                        "recording=off", "figures=null"]))
+    rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        log = Path(tmp) / "rss.txt"
-        t0 = time.perf_counter()
-        subprocess.run([*RUN, "-m", "experiment=sp_example", "solver.t_end=100",
-                        "solver.dt_out=0.0001", "metrics.window=25",
-                        f"seed=range({n_jobs})", f"hydra.sweep.dir={tmp}/m",
-                        "+hydra.callbacks.rss._target_=sweeps_bench.PeakRSS",
-                        f"+hydra.callbacks.rss.path={log}"],
-                       cwd=ROOT, env=_env(), check=True, capture_output=True, text=True)
-        wall = time.perf_counter() - t0
-        rss = np.loadtxt(log, dtype=np.int64).reshape(-1, 2)
-        rrd_mb = (Path(tmp) / "m" / "job0" / "recording.rrd").stat().st_size / 1e6
-    peaks = {int(j): kb / 1024 for j, kb in rss}
-    marks = [0, 9, n_jobs // 2 - 1, n_jobs - 1]
-    return [[f"{n_jobs} jobs of 1,000,001 samples (sp_example, full recordings of "
-             f"{rrd_mb:.0f} MB)", wall, *[peaks[m] for m in marks],
-             peaks[n_jobs - 1] / peaks[9]]]
+        for name, label, overrides in sweeps:
+            wall, peaks, resident, rrd_mb = _sweep_memory(tmp, name, n_jobs, overrides)
+            slope, half = _trend(peaks[WARM_UP:])
+            r_slope, r_half = _trend(resident[WARM_UP:])
+            marks = [0, WARM_UP - 1, n_jobs // 2 - 1, n_jobs - 1]
+            rows.append([f"{n_jobs} jobs of {label}" + (f", {rrd_mb:.0f} MB .rrd each"
+                                                         if rrd_mb else ""), wall,
+                         " / ".join(f"{peaks[m]:.0f}" for m in marks), float(peaks.max()),
+                         f"{100 * slope:+.1f} ± {100 * half:.1f}",
+                         " / ".join(f"{resident[m]:.0f}" for m in marks),
+                         f"{1024 * r_slope:+.0f} ± {1024 * r_half:.0f}",
+                         "yes" if abs(slope) <= half else "no"])
+    return rows
 
 
 def joblib_rows(quick: bool) -> list[list]:
-    """Sequential against joblib (2 workers): 4 jobs of sp_example, t_end 10,000 s and,
-    full run only, 40,000 s and 2,000 s."""
+    """Sequential against joblib (2 workers): 4 jobs of sp_example, t_end 20,000 s (one
+    job ~1 s on an idle machine) and, full run only, 40,000 s; whole multirun wall times,
+    sequential and joblib interleaved, median of 3 pairs (1 with --quick)."""
     rows = []
-    for t_end in ([10000.0] if quick else [10000.0, 40000.0, 2000.0]):
+    reps = 1 if quick else 3
+    for t_end in ([20000.0] if quick else [20000.0, 40000.0]):
         args = ["-m", "experiment=sp_example", f"solver.t_end={t_end:g}",
                 "solver.dt_out=0.1", "recording=off", "seed=0,1,2,3"]
         with tempfile.TemporaryDirectory() as tmp:
             _wall([*RUN, *args[:-1], "seed=0", f"hydra.sweep.dir={tmp}/w"])  # compile
             job = _job_seconds([*RUN, *args[:-1], "seed=0", f"hydra.sweep.dir={tmp}/j"],
                                Path(tmp) / "j")
-            seq = _wall([*RUN, *args, f"hydra.sweep.dir={tmp}/s"])
-            par = _wall([*RUN, *args, "hydra/launcher=joblib", "hydra.launcher.n_jobs=2",
-                         f"hydra.sweep.dir={tmp}/p"])
-        rows.append([f"4 jobs of sp_example t_end={t_end:g} s", job, seq, par, seq / par])
+            seq, par = [], []
+            for k in range(reps):
+                seq.append(_wall([*RUN, *args, f"hydra.sweep.dir={tmp}/s{k}"]))
+                par.append(_wall([*RUN, *args, "hydra/launcher=joblib",
+                                  "hydra.launcher.n_jobs=2", f"hydra.sweep.dir={tmp}/p{k}"]))
+        seq_s, par_s = float(np.median(seq)), float(np.median(par))
+        rows.append([f"4 jobs of sp_example t_end={t_end:g} s", job, seq_s, par_s,
+                     seq_s / par_s, _load()])
     return rows
 
 
+def _load() -> str:
+    """The 1-minute load average now (the machine may be shared)."""
+    return f"{os.getloadavg()[0]:.1f}"
+
+
 def _job_seconds(cmd: list[str], sweep: Path) -> float:
-    """The 'simulated in' time a job logs (one job of the sweep)."""
+    """The simulation seconds a job records in its run.json (one job of the sweep)."""
     subprocess.run(cmd, cwd=ROOT, env=_env(), check=True, capture_output=True, text=True)
-    text = next(sweep.glob("*/*.log")).read_text()
-    return float(text.split("simulated in ")[1].split(" s")[0])
+    info = json.loads(next(sweep.glob("*/run.json")).read_text())
+    return float(info["seconds"]["simulate"])
 
 
 def bench(quick: bool, only: set[str] | None = None) -> dict:
@@ -225,16 +301,19 @@ def bench(quick: bool, only: set[str] | None = None) -> dict:
         out.update(decimated_over_sim_B=rows[0][5], decimated_over_sim_A=rows[1][5])
     if only is None or "memory" in only:
         rows = memory_rows(quick)
-        table("Sweep memory: peak RSS of the sweep process (MB) after job k",
-              ["sweep", "wall (s)", "after job 1", "after job 10", "after half",
-               "after the last", "last / job 10"], rows)
-        out.update(rss_last_over_10=rows[0][-1])
+        table(f"Sweep memory (MB): each job's own peak resident size and the resident size "
+              f"after it, at jobs 1 / {WARM_UP} / half / last; trends fitted over jobs "
+              f"{WARM_UP + 1}..N (least squares, ± 95 %)",
+              ["sweep", "wall (s)", "job peak", "sweep peak", "job peak trend (MB per 100 "
+               "jobs)", "resident after job", "resident trend (KB per job)",
+               "flat: no job-peak trend (0 within ± 95 %)"], rows)
+        out.update(sweep_peak_mb=rows[0][3])
     if only is None or "joblib" in only:
         rows = joblib_rows(quick)
         table("Local parallelism: 4-job multirun, sequential against joblib (2 workers)",
               ["sweep", "one job's simulation (s)", "sequential (s)", "joblib n_jobs=2 (s)",
-               "speedup"], rows)
-        out.update(joblib_speedup=rows[0][-1])
+               "speedup", "load average"], rows)
+        out.update(joblib_speedup=rows[0][-2])
     return out
 
 

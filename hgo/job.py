@@ -23,6 +23,7 @@ from pathlib import Path
 from omegaconf import DictConfig, OmegaConf
 
 from hgo.errors import is_config_error, one_line
+from hgo.memory import release_freed_memory, skip_exit_collection
 
 log = logging.getLogger(__name__)
 EXIT_CONFIG, EXIT_FAILED, EXIT_INTERRUPTED = 2, 1, 130
@@ -109,6 +110,7 @@ def run_job(cfg: DictConfig, out_dir: str | Path) -> int:
     from hgo.ensemble_runner import is_ensemble, run_ensemble
     from hgo.runner import SimulationFailed, run
 
+    skip_exit_collection()  # this process (a sweep, a joblib worker) exits in ~0.2 s
     if cfg.get("resume", False) and is_complete(cfg, out_dir):
         log.info("resume: %s already holds this job's complete outputs; skipped", out_dir)
         return 0
@@ -142,6 +144,8 @@ def run_job(cfg: DictConfig, out_dir: str | Path) -> int:
         remove_if_empty(out_dir)
         report(err, EXIT_CONFIG)
         return EXIT_CONFIG
+    finally:  # the next job of a sweep starts from the memory this one began with
+        release_freed_memory()
     return 0
 
 

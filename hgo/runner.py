@@ -76,10 +76,14 @@ class RunResult:
 
 def _has_nested_target(value) -> bool:
     if isinstance(value, dict):
-        return "_target_" in value or any(_has_nested_target(v) for v in value.values())
-    if isinstance(value, list):
-        return any(_has_nested_target(v) for v in value)
-    return False
+        return "_target_" in value or _any_nested_target(value.values())
+    return isinstance(value, list) and _any_nested_target(value)
+
+
+def _any_nested_target(values) -> bool:
+    # containers only recursed into: an ensemble checks every member's node (10,000 of
+    # them in a grid), mostly lists of numbers
+    return any(_has_nested_target(v) for v in values if isinstance(v, dict | list))
 
 
 def _construct(node, **kwargs):

@@ -324,3 +324,73 @@ def test_recordings_leave_no_threads_behind(tmp_path):
                         blueprint=time_series_blueprint({"v": ["/a"]}))
     assert threads() <= before
     assert len(RrdReader(tmp_path / "r19.rrd").blueprints()) == 1
+
+
+def test_freed_memory_goes_back_to_the_os():
+    """32 MB of freed heap blocks, each below a block still in use (so glibc cannot trim
+    them from the top of its heap): release_freed_memory gives more than 20 MB back (in
+    a fresh process: a test process's heap holds other tests' blocks)."""
+    import ctypes
+    import subprocess
+    import sys
+
+    if not hasattr(ctypes.CDLL(None), "malloc_trim"):
+        pytest.skip("no glibc malloc_trim")
+    code = ("from hgo.memory import release_freed_memory\n"
+            "def resident_kb():\n"
+            "    with open('/proc/self/status') as fh:\n"
+            "        return next(int(x.split()[1]) for x in fh if x.startswith('VmRSS:'))\n"
+            "freed, kept = [], []\n"
+            "for _ in range(500):  # 64 KiB: under the mmap threshold, from the heap\n"
+            "    freed.append(bytearray(65536)); kept.append(bytearray(1024))\n"
+            "del freed\n"
+            "before = resident_kb()\n"
+            "release_freed_memory()\n"
+            "print(before - resident_kb())\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert int(done.stdout) > 20_000
+
+
+def test_exit_skips_the_final_collection_but_runs_exit_handlers(tmp_path):
+    """A process that called skip_exit_collection still runs its exit handlers (logging's
+    flush of a file handler here) and ends with status 0."""
+    import subprocess
+    import sys
+
+    log = tmp_path / "log.txt"
+    code = ("import logging\n"
+            "from hgo.memory import skip_exit_collection\n"
+            "skip_exit_collection(); skip_exit_collection()\n"
+            f"logging.basicConfig(filename={str(log)!r})\n"
+            "logging.getLogger('x').warning('written at exit')\n"
+            "cycle = []; cycle.append(cycle)\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert "written at exit" in log.read_text()
+
+
+def test_member_nodes_take_the_fast_path_unless_a_target_is_nested():
+    from hgo.runner import _has_nested_target
+
+    assert not _has_nested_target({"K": [2.0, 2.0], "M": [[3.0, 0.0], [0.0, 0.0]], "c": None})
+    assert _has_nested_target({"K": [2.0, {"x": [{"_target_": "a.b"}]}]})
+    assert _has_nested_target({"inner": {"_target_": "a.b"}})
+
+
+def test_sweep_summary_drops_each_jobs_configs_from_hydras_job_return(compose, tmp_path):
+    """Hydra keeps every JobReturn until a sweep ends; in a multirun the last callback to
+    see a job drops its configs (a single run keeps them)."""
+    from hydra.core.utils import JobReturn, JobStatus
+    from hydra.types import RunMode
+
+    from hgo.aggregate import SweepSummary
+
+    cfg = compose(["experiment=sp_example"], tmp_path)
+    for mode, kept in ((RunMode.RUN, True), (RunMode.MULTIRUN, False)):
+        hydra_node = OmegaConf.create({"hydra": {"mode": mode}})
+        ret = JobReturn(cfg=cfg, hydra_cfg=hydra_node, status=JobStatus.COMPLETED,
+                        _return_value=7)
+        SweepSummary().on_job_end(hydra_node, ret)
+        assert (ret.cfg is not None, ret.hydra_cfg is not None) == (kept, kept)
+        assert ret.return_value == 7

@@ -8,6 +8,7 @@ estimates ``xh = [xhat_obs1 | ...]``.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -24,8 +25,9 @@ def _check_indices(key: str, what: str, indices, n: int, names: list[str]) -> No
 
 
 def _offsets(sizes: list[int]) -> list[tuple[int, int]]:
-    ends = np.cumsum([0, *sizes])
-    return [(int(a), int(b)) for a, b in zip(ends[:-1], ends[1:], strict=True)]
+    # plain Python, not np.cumsum: a System is built per ensemble member (10,000 in a grid)
+    ends = list(itertools.accumulate(map(int, sizes), initial=0))
+    return list(zip(ends[:-1], ends[1:], strict=True))
 
 
 @dataclass

@@ -99,7 +99,10 @@ def triangular_hgo(name: str, K: Sequence[float], xhat0: Sequence[float], r0: fl
     _check(law in LAWS, f"observer.{name}.law: '{law}' not in {sorted(LAWS)}")
     _check(len(xhat0) == n, f"observer.{name}.xhat0 must have n={n} entries, got {len(xhat0)}")
     _check(M.shape == (n, n), f"observer.{name}.M must be {n}x{n}, got {M.shape}")
-    _check(np.allclose(M, np.tril(M)), f"observer.{name}.M must be lower triangular (form (3))")
+    # |M_ij| <= 1e-8 above the diagonal (np.allclose(M, np.tril(M)) at a quarter of its cost:
+    # one observer per member of an ensemble)
+    _check(not (np.abs(np.triu(M, 1)) > 1e-8).any(),
+           f"observer.{name}.M must be lower triangular (form (3))")
     _check(c.shape == (n,), f"observer.{name}.c must have n={n} entries")
     _check(r0 >= 1, f"observer.{name}.r0 must be >= 1 (Sanfelice & Praly, Theorem 2.2 C), "
            f"got {r0}")
