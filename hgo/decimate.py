@@ -60,12 +60,17 @@ def check_recording(mode: str, max_rows: int) -> None:
         raise ValueError(f"recording.max_rows must be an integer >= 2, got {max_rows!r}")
 
 
+def recording_mode(recording) -> str:
+    """``recording.mode`` of a config node (None: ``full``)."""
+    return "full" if recording is None else getattr(recording.mode, "name", recording.mode)
+
+
 def write_run_recording(recording, path: Path, t: np.ndarray, series: Sequence[Series],
                         *, text: dict[str, str], **kwargs) -> Path | None:
     """:func:`hgo.recording.write_recording` in ``recording.mode`` (a config node with
     ``mode`` and ``max_rows``; None: full). The ``/run/config`` text starts with a line
     saying how the file was reduced. Returns the path, or None when ``mode`` is off."""
-    mode = "full" if recording is None else getattr(recording.mode, "name", recording.mode)
+    mode = recording_mode(recording)
     max_rows = 0 if recording is None else int(recording.max_rows)
     if recording is not None:
         check_recording(mode, max_rows)

@@ -37,7 +37,7 @@ from hydra.utils import instantiate
 from omegaconf import DictConfig
 
 from hgo.console import ensemble_table
-from hgo.decimate import write_run_recording
+from hgo.decimate import recording_mode, write_run_recording
 from hgo.engine.jit import compile_timer
 from hgo.engine.simulate import INTERRUPTED, rho_const, simulate, simulate_ensemble
 from hgo.engine.system import System
@@ -192,7 +192,11 @@ def _std(values: np.ndarray) -> float:
 
 def _record_member0(cfg, out_dir, systems, solver, noise, size, post, first) -> None:
     """The representative recording: member 0's run (``first``, its trajectory if kept,
-    else simulated again) with its post-processed series."""
+    else simulated again) with its post-processed series; returns that run (``first`` as
+    given when ``recording.mode`` is off: nothing is simulated again, nor Rerun loaded)."""
+    if recording_mode(cfg.get("recording")) == "off":
+        log.info("recording.mode=off: no recording.rrd")
+        return first
     first = first or simulate(systems[0], solver, noise)
     series = signals(systems[0], first) + post.series
     write_run_recording(cfg.get("recording"), out_dir / "recording.rrd", first.t, series,
@@ -281,7 +285,8 @@ def run_ensemble(cfg: DictConfig, out_dir: str | Path) -> EnsembleResult:
     n_failed = int((out["status"] != 0).sum())
     if n_failed:
         log.warning("ensemble: %d of %d members stopped early (see metrics.csv)", n_failed, size)
-    interrupted = (out["status"] == INTERRUPTED).any() or first.status == INTERRUPTED
+    interrupted = (out["status"] == INTERRUPTED).any() or (
+        first is not None and first.status == INTERRUPTED)
     status = ("interrupted" if interrupted else
               f"ok ({n_failed} of {size} members stopped early)" if n_failed else "ok")
     track(cfg, out_dir, started, status, timings, table[table.member == "all"])

@@ -29,7 +29,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from hgo.components import Controller, Observer, Plant
 from hgo.console import compact_table
-from hgo.decimate import check_recording, write_run_recording
+from hgo.decimate import check_recording, recording_mode, write_run_recording
 from hgo.engine.jit import compile_timer
 from hgo.engine.simulate import INTERRUPTED, SolverSettings, Trajectory, check_split, simulate
 from hgo.engine.system import System
@@ -304,7 +304,7 @@ def recording_settings(cfg: DictConfig) -> None:
     """``recording.mode`` and ``recording.max_rows``, checked before any integration."""
     node = cfg.get("recording")
     if node is not None:
-        check_recording(getattr(node.mode, "name", node.mode), node.max_rows)
+        check_recording(recording_mode(node), node.max_rows)
 
 
 def figure_settings(cfg: DictConfig) -> tuple[str, float]:
@@ -332,7 +332,7 @@ def _figures(cfg: DictConfig, result: RunResult) -> list[Path]:
         if node is None or name in FIGURE_SETTINGS:
             continue
         path = result.out_dir / f"{name}.{fmt}"
-        with plt.rc_context({"savefig.dpi": dpi}):
+        with plt.rc_context({"savefig.dpi": dpi, "figure.dpi": dpi}):  # (see figures.STYLE)
             instantiate(node, _partial_=True)(result, path)
         paths.append(path)
     return paths
