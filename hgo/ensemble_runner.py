@@ -56,6 +56,7 @@ from hgo.postprocess import PostOutput
 from hgo.progress import bar
 from hgo.recording import atomic_output
 from hgo.runner import (
+    FIGURE_SETTINGS,
     RunInterrupted,
     _construct,
     _instantiate,
@@ -254,8 +255,11 @@ def prepare_ensemble(cfg: DictConfig) -> EnsemblePlan:
 def run_ensemble(cfg: DictConfig, out_dir: str | Path) -> EnsembleResult:
     """Plan, build, integrate and tabulate the members of ``cfg.ensemble``."""
     out_dir = Path(out_dir)
-    if cfg.get("figures"):
-        log.warning("ensemble: figures not applied (they draw one run; see ensemble.reports)")
+    figures = [name for name, node in (cfg.get("figures") or {}).items()
+               if node is not None and name not in FIGURE_SETTINGS]
+    if figures:
+        log.warning("ensemble: figures %s not applied (they draw one run; see "
+                    "ensemble.reports)", ", ".join(figures))
     ready = prepare_ensemble(cfg)
     plan, nodes, systems, solver, noise = (ready.plan, ready.nodes, ready.systems,
                                            ready.solver, ready.noise)
