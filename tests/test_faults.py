@@ -174,21 +174,40 @@ def _interrupt_in(monkeypatch, target: str, exc: BaseException, after: int = 1) 
     monkeypatch.setattr(module, name, wrapped)
 
 
-def test_ctrl_c_while_writing_leaves_only_a_partial_recording(tmp_path, monkeypatch):
+CTRL_C_WRITER = textwrap.dedent('''
+    import sys
+    import hgo.recording
+    from hgo.config import compose
+    from hgo.job import run_job
+    send = hgo.recording._send_series
+    calls = {"n": 0}
+
+    def interrupted(*args, **kwargs):  # KeyboardInterrupt where SIGINT would raise it
+        calls["n"] += 1
+        if calls["n"] > 1:
+            raise KeyboardInterrupt
+        return send(*args, **kwargs)
+
+    hgo.recording._send_series = interrupted
+    run_job(compose(SHORT, sys.argv[1]), sys.argv[1])
+''')
+
+
+def test_ctrl_c_while_writing_leaves_only_a_partial_recording(tmp_path):
     """KeyboardInterrupt in the middle of the recording (where SIGINT would raise it):
     no recording.rrd, a recording.rrd.partial that read_recording calls truncated, no
-    metrics.csv; the job ends with exit 130."""
+    metrics.csv; the job ends with exit 130. In its own process, as a Ctrl-C ends one:
+    the interrupted stream's native state, left in a long-lived process, made Rerun fail
+    every recording of processes later forked from it (hgo reproduce's workers)."""
     import pytest
 
-    from hgo.config import compose as compose_config
-    from hgo.job import run_job
     from hgo.recording import RecordingIncomplete, read_recording
 
-    cfg = compose_config(SHORT, tmp_path)
-    _interrupt_in(monkeypatch, "hgo.recording:_send_series", KeyboardInterrupt())
-    with pytest.raises(SystemExit) as ended:
-        run_job(cfg, tmp_path)
-    assert ended.value.code == 130
+    script = f"SHORT = {SHORT!r}\n" + CTRL_C_WRITER
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    ended = subprocess.run([sys.executable, "-c", script, str(tmp_path)], env=env,
+                           capture_output=True, text=True, timeout=300)
+    assert ended.returncode == 130, ended.stderr[-2000:]
     assert not (tmp_path / "recording.rrd").exists()
     assert not (tmp_path / "metrics.csv").exists()
     with pytest.raises(RecordingIncomplete, match="truncated"):
