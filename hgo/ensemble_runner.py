@@ -38,7 +38,7 @@ from omegaconf import DictConfig
 
 from hgo.console import ensemble_table
 from hgo.decimate import recording_mode, write_run_recording
-from hgo.engine.jit import compile_timer
+from hgo.engine.jit import run_seconds
 from hgo.engine.simulate import INTERRUPTED, rho_const, simulate, simulate_ensemble
 from hgo.engine.system import System
 from hgo.ensemble import (
@@ -265,12 +265,10 @@ def run_ensemble(cfg: DictConfig, out_dir: str | Path) -> EnsembleResult:
                                            ready.solver, ready.noise)
     size = len(plan.index)
     out_dir.mkdir(parents=True, exist_ok=True)
-    started, t0 = datetime.now(), time.perf_counter()
+    started = datetime.now()
     record = bool(cfg.get("postprocess"))
-    with compile_timer() as compiling:
+    with run_seconds() as timings:
         out = _simulate_chunks(solver, noise, ready.params, ready.z0, ready.d0, systems, record)
-    t_compile = compiling.duration if compiling.done else 0.0
-    timings = {"compile": t_compile, "simulate": time.perf_counter() - t0 - t_compile}
     posts = _post([n["postprocess"] for n in nodes], systems, out["trajectories"]) \
         if record else None
 
@@ -279,8 +277,9 @@ def run_ensemble(cfg: DictConfig, out_dir: str | Path) -> EnsembleResult:
     table.insert(0, "run", cfg.get("run_name", "run"))
     with atomic_output(out_dir / "metrics.csv") as partial:
         table.to_csv(partial, index=False)
+    aggregate = table[table.member == "all"]
     log.info("ensemble metrics over %d members (all columns in metrics.csv):\n%s", size,
-             ensemble_table(table[table.member == "all"]))
+             ensemble_table(aggregate))
     first = _record_member0(cfg, out_dir, systems, solver, noise[0], size,
                             posts[0] if posts else PostOutput(),
                             out["trajectories"][0] if record else None)
@@ -293,7 +292,7 @@ def run_ensemble(cfg: DictConfig, out_dir: str | Path) -> EnsembleResult:
         first is not None and first.status == INTERRUPTED)
     status = ("interrupted" if interrupted else
               f"ok ({n_failed} of {size} members stopped early)" if n_failed else "ok")
-    track(cfg, out_dir, started, status, timings, table[table.member == "all"])
+    track(cfg, out_dir, started, status, timings, aggregate)
     if interrupted:
         raise RunInterrupted(f"ensemble interrupted (outputs up to then are in {out_dir})")
     values = {k: np.asarray(v) for k, v in plan.values.items()}

@@ -30,7 +30,7 @@ from omegaconf import DictConfig, OmegaConf
 from hgo.components import Controller, Observer, Plant
 from hgo.console import compact_table
 from hgo.decimate import check_recording, recording_mode, write_run_recording
-from hgo.engine.jit import compile_timer
+from hgo.engine.jit import run_seconds
 from hgo.engine.simulate import INTERRUPTED, SolverSettings, Trajectory, check_split, simulate
 from hgo.engine.system import System
 from hgo.errors import ConfigError
@@ -354,16 +354,13 @@ def simulate_config(cfg: DictConfig) -> MemoryRun:
     """Build, simulate, post-process and tabulate the metrics of a composed config."""
     exp = build(cfg)
     log.info("integrating t = 0 .. %g s (%s)", exp.solver.t_end, exp.solver.method)
-    t0 = time.perf_counter()
-    with compile_timer() as compiling, compile_progress(exp.solver.method):
+    with run_seconds() as seconds, compile_progress(exp.solver.method):
         traj = run_experiment(exp)
-    t_compile = compiling.duration if compiling.done else 0.0
-    t_sim = time.perf_counter() - t0 - t_compile
     post = postprocess(cfg, exp, traj) if traj.ok else PostOutput()
     table = metrics_table(exp.system, traj.acc, traj.status, traj.t_stop, post.bounds,
                           post.rows, vacuous_factor(cfg))
     table.insert(0, "run", cfg.get("run_name", "run"))
-    return MemoryRun(exp, traj, post, table, t_sim, t_compile)
+    return MemoryRun(exp, traj, post, table, seconds["simulate"], seconds["compile"])
 
 
 def status_text(traj: Trajectory) -> str:

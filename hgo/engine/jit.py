@@ -16,6 +16,10 @@ kernel guarantees (the parents are the integrator's own work arrays).
 
 from __future__ import annotations
 
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+
 import numba
 from numba.core import types
 from numba.extending import intrinsic
@@ -92,3 +96,16 @@ def compile_timer():
     from numba.core.event import TimingListener, install_listener
 
     return install_listener("numba:compile", TimingListener())
+
+
+@contextmanager
+def run_seconds() -> Iterator[dict[str, float]]:
+    """``with run_seconds() as seconds: ...``: afterwards ``seconds["compile"]`` is the
+    time numba spent compiling inside the block (0 when every kernel was cached) and
+    ``seconds["simulate"]`` the rest of the block's wall time."""
+    seconds = {"compile": 0.0, "simulate": 0.0}
+    start = time.perf_counter()
+    with compile_timer() as compiling:
+        yield seconds
+    seconds["compile"] = compiling.duration if compiling.done else 0.0
+    seconds["simulate"] = time.perf_counter() - start - seconds["compile"]

@@ -305,8 +305,7 @@ def simulate(system: System, solver: SolverSettings, noise: Noise,
         system, solver.method, "integrate", z, d, P,
         np.ascontiguousarray(noise.samples, float), *args, *rec, acc, _control(solver))
     t = t[:n_rec, 0]
-    t[:] = np.arange(n_rec)
-    t *= solver.dt_out
+    t[:] = np.arange(n_rec) * solver.dt_out
     Z, D, Y, M, U, XH = (a[:n_rec] for a in rec)
     return Trajectory(t, Z, D, Y, M, U, XH, int(status), float(t_stop), acc)
 
