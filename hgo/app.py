@@ -90,7 +90,7 @@ def main(cfg: DictConfig) -> None:
     if multirun:  # one line per job on the console; the table is in metrics.csv
         logging.getLogger("hgo").setLevel(logging.WARNING)
     skipped = bool(cfg.get("resume", False)) and is_complete(cfg, out_dir)
-    code = run_job(cfg, out_dir)
+    code = run_job(cfg, out_dir, figures_aside=not multirun)
     if not out_dir.exists():  # a configuration error: the one line is already out
         return
     _point_latest(out_dir)

@@ -49,7 +49,6 @@ from hgo.ensemble import (
     stack_members,
 )
 from hgo.errors import ConfigError
-from hgo.figures.ensemble import metric_histograms
 from hgo.metrics import metric_rows
 from hgo.noise import NoiseModel
 from hgo.postprocess import PostOutput
@@ -284,6 +283,8 @@ def run_ensemble(cfg: DictConfig, out_dir: str | Path) -> EnsembleResult:
                             posts[0] if posts else PostOutput(),
                             out["trajectories"][0] if record else None)
     if int(cfg.ensemble.size) > 1:  # a distribution of replicates (a grid has its reports)
+        from hgo.figures.ensemble import metric_histograms  # (matplotlib: only when drawn)
+
         metric_histograms(members, out_dir / "ensemble.png")
     n_failed = int((out["status"] != 0).sum())
     if n_failed:

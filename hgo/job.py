@@ -17,7 +17,7 @@ import os
 import shutil
 import sys
 from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from pathlib import Path
 
 from omegaconf import DictConfig, OmegaConf
@@ -100,14 +100,17 @@ def mark_complete(cfg: DictConfig, out_dir: str | Path) -> None:
         partial.write_text("\n".join([config_hash(cfg), *files]) + "\n")
 
 
-def run_job(cfg: DictConfig, out_dir: str | Path) -> int:
+def run_job(cfg: DictConfig, out_dir: str | Path, figures_aside: bool = False) -> int:
     """Run ``cfg`` into ``out_dir``; returns the exit code (0: ok), errors reported as one
     line (see module doc). Ctrl-C ends the process (exit 130) after the one line: a sweep
     stops there; the interrupted job keeps its outputs (``*.partial`` if mid-write).
 
     ``resume=true``: a job whose directory already holds the complete outputs of the same
-    composed config (:func:`is_complete`) is skipped; any other is run (again)."""
+    composed config (:func:`is_complete`) is skipped; any other is run (again).
+    ``figures_aside``: a single run draws its figures in a forked process
+    (:mod:`hgo.figure_worker`); for the one run of a process."""
     from hgo.ensemble_runner import is_ensemble, run_ensemble
+    from hgo.figure_worker import figures_aside as worker
     from hgo.runner import SimulationFailed, run
 
     skip_exit_collection()  # this process (a sweep, a joblib worker) exits in ~0.2 s
@@ -119,7 +122,8 @@ def run_job(cfg: DictConfig, out_dir: str | Path) -> int:
         if is_ensemble(cfg):
             run_ensemble(cfg, out_dir)
         else:
-            run(cfg, out_dir)
+            with worker(cfg) if figures_aside else nullcontext() as figures:
+                run(cfg, out_dir, figures)
         mark_complete(cfg, out_dir)
     except KeyboardInterrupt as err:
         if full_error():

@@ -21,6 +21,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import pandas as pd
 from hydra.errors import InstantiationException
@@ -42,6 +43,9 @@ from hgo.recording import Series, atomic_output, time_series_blueprint
 from hgo.runs import write_run_json
 from hgo.validate import check_cost as _check_sizes
 from hgo.validate import check_values
+
+if TYPE_CHECKING:
+    from hgo.figure_worker import FigureWorker
 
 log = logging.getLogger(__name__)
 
@@ -298,6 +302,7 @@ def postprocess(cfg: DictConfig, exp: Experiment, traj: Trajectory) -> PostOutpu
 
 
 FIGURE_SETTINGS = ("format", "dpi")  # keys of the ``figures`` node that are not figures
+FORMATS = ("png", "pdf", "svg")  # of ``figures.format``
 
 
 def recording_settings(cfg: DictConfig) -> None:
@@ -309,8 +314,6 @@ def recording_settings(cfg: DictConfig) -> None:
 
 def figure_settings(cfg: DictConfig) -> tuple[str, float]:
     """``figures.format`` and ``figures.dpi``, checked (before any integration)."""
-    from hgo.figures import FORMATS
-
     node = cfg.get("figures") or {}
     fmt, dpi = node.get("format", "png"), node.get("dpi", 110)
     if fmt not in FORMATS:
@@ -320,17 +323,23 @@ def figure_settings(cfg: DictConfig) -> tuple[str, float]:
     return fmt, float(dpi)
 
 
-def _figures(cfg: DictConfig, result: RunResult) -> list[Path]:
+def figure_nodes(cfg: DictConfig) -> dict:
+    """The figures of the ``figures`` mapping (name -> ``_target_`` node); a preset drops
+    an inherited figure with ``figures.<name>: null``."""
+    return {name: node for name, node in (cfg.get("figures") or {}).items()
+            if node is not None and name not in FIGURE_SETTINGS}
+
+
+def draw_figures(cfg: DictConfig, result: RunResult) -> list[Path]:
     """Figures of the ``figures`` mapping (name -> ``_target_`` taking the result and a
     path), written as ``<name>.<figures.format>`` at ``figures.dpi``."""
     import matplotlib.pyplot as plt
 
+    import hgo.figures  # noqa: F401  (hgo's style and the Agg backend)
+
     fmt, dpi = figure_settings(cfg)
     paths = []
-    for name, node in (cfg.get("figures") or {}).items():
-        # a preset drops an inherited figure with `figures.<name>: null`
-        if node is None or name in FIGURE_SETTINGS:
-            continue
+    for name, node in figure_nodes(cfg).items():
         path = result.out_dir / f"{name}.{fmt}"
         with plt.rc_context({"savefig.dpi": dpi, "figure.dpi": dpi}):  # (see figures.STYLE)
             instantiate(node, _partial_=True)(result, path)
@@ -370,40 +379,47 @@ def status_text(traj: Trajectory) -> str:
     return f"{status_word(traj.status)} at t = {traj.t_stop:g} s: {traj.message}"
 
 
-def run(cfg: DictConfig, out_dir: str | Path) -> RunResult:
+def run(cfg: DictConfig, out_dir: str | Path, figures: FigureWorker | None = None) -> RunResult:
     """Build, simulate and write ``recording.rrd``, ``metrics.csv`` and figures.
 
     Every file is written under ``<name>.partial`` and renamed when complete. A run that
     stopped early raises :class:`SimulationFailed`, an interrupted one (Ctrl-C)
-    :class:`RunInterrupted`, both after writing what was computed."""
+    :class:`RunInterrupted`, both after writing what was computed. With ``figures`` (a
+    :class:`hgo.figure_worker.FigureWorker` forked for ``cfg``), the figures are drawn
+    there while the recording is written."""
     out_dir = Path(out_dir)
     started = datetime.now()
     mem = simulate_config(cfg)
     out_dir.mkdir(parents=True, exist_ok=True)
     exp, traj, table = mem.experiment, mem.trajectory, mem.metrics
     series = signals(exp.system, traj) + mem.post.series
+    result = RunResult(exp, traj, table, out_dir, series, {
+        "compile": mem.compile_seconds, "simulate": mem.simulate_seconds})
+    if figures is not None and traj.ok:
+        figures.submit(result)
     t1 = time.perf_counter()
     write_run_recording(cfg.get("recording"), out_dir / "recording.rrd", traj.t, series,
                         recording_id=recording_id(out_dir),
                         blueprint=blueprint(exp.system, series),
                         text={"/run/status": status_text(traj),
                               "/run/config": job_config_yaml(cfg)})
-    t_write = time.perf_counter() - t1
+    result.timings["write"] = t_write = time.perf_counter() - t1
     log.info("simulated in %.3f s (compiling %.3f s); recording of %d samples x %d columns "
              "written in %.3f s", mem.simulate_seconds, mem.compile_seconds, len(traj.t),
              sum(len(s.names) for s in series), t_write)
     with atomic_output(out_dir / "metrics.csv") as partial:
         table.to_csv(partial, index=False)
     log.info("metrics (all columns in metrics.csv):\n%s", compact_table(table))
-    result = RunResult(exp, traj, table, out_dir, series, {
-        "compile": mem.compile_seconds, "simulate": mem.simulate_seconds, "write": t_write})
     stopped = (f"run {status_word(traj.status)} at t = {traj.t_stop:g} s: {traj.message} "
                f"(outputs up to then are in {out_dir})")
     if not traj.ok:
         track(cfg, out_dir, started, f"{status_word(traj.status)}: {traj.message}",
               result.timings, table)
         raise (RunInterrupted if traj.status == INTERRUPTED else SimulationFailed)(stopped)
-    _figures(cfg, result)
+    if figures is not None:
+        figures.collect()
+    else:
+        draw_figures(cfg, result)
     track(cfg, out_dir, started, "ok", result.timings, table)
     return result
 

@@ -31,7 +31,6 @@ STYLE = {
     "figure.dpi": 110,
 }
 plt.rcParams.update(STYLE)
-FORMATS = ("png", "pdf", "svg")
 
 # symbols of config keys and signal names, as mathtext
 _GREEK = {"eps": r"\varepsilon", "mu": r"\mu", "sigma": r"\sigma", "delta": r"\delta",

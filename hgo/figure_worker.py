@@ -1,0 +1,176 @@
+"""A single run's figures drawn in a forked process, beside the run.
+
+A cached single run spends most of its time importing libraries and drawing:
+``matplotlib.pyplot`` takes ~0.25 s to import and a paper figure ~0.3 s to lay out and
+save, against milliseconds of integration. :class:`FigureWorker` forks once the run's
+config is composed; the child imports matplotlib (and what the figures use) while the
+parent loads the kernel and simulates, then draws the figures from the run's result
+(pickled through a pipe, 1-36 MB for the paper presets, milliseconds) while the parent
+writes the recording and ``metrics.csv``. The parent waits for the figures before it
+writes ``run.json`` and marks the run complete, so the outputs, statuses and errors are
+those of drawing in the run's own process: an exception raised by a figure is raised
+again in the parent.
+
+Used by ``hgo run`` for single runs (not sweeps, whose jobs share one process and so
+import matplotlib once, nor ensembles) on Linux, where ``fork`` is the start method
+every library here supports. The child ignores Ctrl-C (the parent ends it) and ends with
+``os._exit``: no exit handler of the parent's libraries runs twice.
+"""
+
+from __future__ import annotations
+
+import gc
+import os
+import pickle
+import signal
+import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+from omegaconf import DictConfig
+
+from hgo.errors import one_line
+
+
+def _read_all(fd: int) -> bytes:
+    chunks = []
+    while chunk := os.read(fd, 1 << 20):
+        chunks.append(chunk)
+    return b"".join(chunks)
+
+
+def _write_all(fd: int, data: bytes) -> None:
+    view = memoryview(data)
+    while view:
+        view = view[os.write(fd, view):]
+
+
+def _picklable(err: BaseException) -> BaseException:
+    """``err`` itself if it survives a pickle round trip, else its one line."""
+    try:
+        pickle.loads(pickle.dumps(err))
+        return err
+    except Exception:
+        return RuntimeError(one_line(err))
+
+
+def _warm_up() -> None:
+    """Lay out and render a small figure with mathtext and a legend, thrown away: builds
+    matplotlib's mathtext parser and loads its fonts (~0.04 s of the first figure) while
+    the parent still simulates."""
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(2, 2))
+    ax.plot([0.0, 1.0], [0.0, 1.0], label=r"$\hat{x}_{1}$")
+    ax.set_xlabel(r"$t$ (s)")
+    ax.legend()
+    fig.tight_layout()
+    fig.canvas.draw()
+    plt.close(fig)
+
+
+def _serve(cfg: DictConfig, request_fd: int, reply_fd: int) -> None:
+    """The child: import, wait for the result, draw, reply ``("ok", paths)`` or
+    ``("error", exception)``. EOF instead of a request (the run stopped): draw nothing."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    import hgo.figures  # noqa: F401  (matplotlib with hgo's style, while the parent runs)
+    from hgo.runner import draw_figures
+
+    gc.freeze()  # the collector skips the modules' objects while drawing (0.1 s a figure)
+    _warm_up()
+    data = _read_all(request_fd)
+    if not data:
+        return
+    try:
+        reply: tuple[str, Any] = ("ok", draw_figures(cfg, pickle.loads(data)))
+    except BaseException as err:  # noqa: BLE001  (the parent raises it again)
+        reply = ("error", _picklable(err))
+    _write_all(reply_fd, pickle.dumps(reply, protocol=pickle.HIGHEST_PROTOCOL))
+
+
+class FigureWorker:
+    """A forked process that draws the figures of ``cfg`` for one
+    :class:`hgo.runner.RunResult` (:meth:`submit`, then :meth:`collect`)."""
+
+    def __init__(self, cfg: DictConfig) -> None:
+        request_r, self._request_w = os.pipe()
+        self._reply_r, reply_w = os.pipe()
+        sys.stdout.flush()
+        sys.stderr.flush()
+        gc.freeze()  # neither process's collector walks (or copies) what exists now
+        self.pid = os.fork()
+        if self.pid == 0:  # the child
+            os.close(self._request_w)
+            os.close(self._reply_r)
+            code = 0
+            try:
+                _serve(cfg, request_r, reply_w)
+            except BaseException as err:  # noqa: BLE001  (a broken pipe: the parent ended)
+                sys.stderr.write(f"figure process: {one_line(err)}\n")
+                code = 1
+            finally:
+                sys.stderr.flush()
+                os._exit(code)
+        os.close(request_r)
+        os.close(reply_w)
+
+    @staticmethod
+    def available() -> bool:
+        """Whether figures can be drawn in a forked process here (Linux)."""
+        return sys.platform == "linux" and hasattr(os, "fork")
+
+    def submit(self, result: Any) -> None:
+        """Send the run's result: the child starts drawing."""
+        try:
+            _write_all(self._request_w, pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL))
+        finally:
+            os.close(self._request_w)
+            self._request_w = -1
+
+    def collect(self) -> list[Path]:
+        """Wait for the figures; their paths, or the exception a figure raised
+        (:class:`ChildProcessError` if the process ended without replying)."""
+        data = _read_all(self._reply_r)
+        if not data:
+            _, status = os.waitpid(self.pid, 0)
+            self.pid = -1
+            self.close()
+            raise ChildProcessError("the figure process ended (exit code "
+                                    f"{os.waitstatus_to_exitcode(status)}) without drawing "
+                                    "the figures")
+        self.close()
+        status, value = pickle.loads(data)
+        if status == "error":
+            raise value
+        return value
+
+    def close(self) -> None:
+        """End the child (if it is still there) and release the pipes; idempotent."""
+        for fd in (self._request_w, self._reply_r):
+            if fd >= 0:
+                os.close(fd)
+        self._request_w = self._reply_r = -1
+        if self.pid > 0:
+            try:
+                os.kill(self.pid, signal.SIGTERM)
+            except ProcessLookupError:
+                pass
+            os.waitpid(self.pid, 0)
+            self.pid = -1
+
+@contextmanager
+def figures_aside(cfg: DictConfig) -> Iterator[FigureWorker | None]:
+    """A :class:`FigureWorker` for ``cfg``'s figures, ended on leaving; None where there
+    are no figures or no ``fork``."""
+    from hgo.runner import figure_nodes
+
+    if not (FigureWorker.available() and figure_nodes(cfg)):
+        yield None
+        return
+    worker = FigureWorker(cfg)
+    try:
+        yield worker
+    finally:
+        worker.close()
