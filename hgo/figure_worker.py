@@ -24,6 +24,7 @@ import os
 import pickle
 import signal
 import sys
+import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -45,6 +46,17 @@ def _write_all(fd: int, data: bytes) -> None:
     view = memoryview(data)
     while view:
         view = view[os.write(fd, view):]
+
+
+def _send_and_close(fd: int, data: bytes) -> None:
+    """(In a thread: the pipe takes 64 KB at a time, as fast as the child reads it, and the
+    child may still be importing.)"""
+    try:
+        _write_all(fd, data)
+    except BrokenPipeError:  # the child ended: collect() says so
+        pass
+    finally:
+        os.close(fd)
 
 
 def _picklable(err: BaseException) -> BaseException:
@@ -96,6 +108,7 @@ class FigureWorker:
 
     def __init__(self, cfg: DictConfig) -> None:
         request_r, self._request_w = os.pipe()
+        self._sender: threading.Thread | None = None
         self._reply_r, reply_w = os.pipe()
         sys.stdout.flush()
         sys.stderr.flush()
@@ -122,12 +135,11 @@ class FigureWorker:
         return sys.platform == "linux" and hasattr(os, "fork")
 
     def submit(self, result: Any) -> None:
-        """Send the run's result: the child starts drawing."""
-        try:
-            _write_all(self._request_w, pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL))
-        finally:
-            os.close(self._request_w)
-            self._request_w = -1
+        """Send the run's result (in the background): the child starts drawing."""
+        data = pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL)
+        fd, self._request_w = self._request_w, -1
+        self._sender = threading.Thread(target=_send_and_close, args=(fd, data), daemon=True)
+        self._sender.start()
 
     def collect(self) -> list[Path]:
         """Wait for the figures; their paths, or the exception a figure raised
@@ -159,6 +171,9 @@ class FigureWorker:
                 pass
             os.waitpid(self.pid, 0)
             self.pid = -1
+        if self._sender is not None:  # its pipe is broken now, if it was not done
+            self._sender.join()
+
 
 @contextmanager
 def figures_aside(cfg: DictConfig) -> Iterator[FigureWorker | None]:
