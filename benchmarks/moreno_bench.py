@@ -117,6 +117,7 @@ def bench(quick: bool) -> dict:
     hgo_t, hgo_err = np.zeros(2), 0.0
     base_t = {key: np.zeros(2) for key in BASELINES}
     base_err = dict.fromkeys(BASELINES, 0.0)
+    by_input = {c: np.zeros(2) for c in INPUTS}  # CPU s of hgo, of same-settings DOP853
     for job in jobs:
         cfg = compose(["experiment=moreno_pe", "postprocess=none", *job])
         exp = build(cfg)
@@ -127,11 +128,15 @@ def bench(quick: bool) -> dict:
             raise RuntimeError(f"reference run {job} stopped: {tight.message}")
         ref = _states(tight)
         traj = run_experiment(exp)  # compiles once (then cached)
-        hgo_t += _median_times(lambda e=exp: run_experiment(e), reps)
+        hgo_job = _median_times(lambda e=exp: run_experiment(e), reps)
+        hgo_t += hgo_job
+        by_input[job[2].split("=")[1]][0] += hgo_job[0]
         hgo_err = max(hgo_err, float(np.max(np.abs(_states(traj) - ref))))
         for key, (method, rtol, max_step, rhs) in BASELINES.items():
             times, w = _baseline(exp, method, rtol, max_step or exp.solver.h_max, rhs)
             base_t[key] += times
+            if key == "dop853":
+                by_input[job[2].split("=")[1]][1] += times[0]
             base_err[key] = max(base_err[key], float(np.max(np.abs(w - ref))))
     accurate = [key for key in BASELINES if base_err[key] <= hgo_err]
     if not accurate:
@@ -148,6 +153,7 @@ def bench(quick: bool) -> dict:
     out["ratio_dop853_numpy"] = base_t["dop853_numpy"][0] / hgo_t[0]
     out["ratio_fastest"] = base_t[fastest][0] / hgo_t[0]
     out["ratio_fastest_wall"] = base_t[fastest][1] / hgo_t[1]
+    out["ratio_dop853_by_input"] = {c: b / h for c, (h, b) in by_input.items() if h > 0}
     return out
 
 
@@ -165,6 +171,8 @@ def _report(r: dict) -> None:
           f"({r['ratio_dop853_wall']:.0f}x wall; numpy right-hand side "
           f"{r['ratio_dop853_numpy']:.0f}x CPU); fastest as accurate ({r['fastest']}): "
           f"{r['ratio_fastest']:.0f}x CPU ({r['ratio_fastest_wall']:.0f}x wall)")
+    print("  same-settings ratio by input (bad and pulse: no sine to evaluate): " + ", ".join(
+        f"{c.removeprefix('moreno_')} {x:.0f}x" for c, x in r["ratio_dop853_by_input"].items()))
 
 
 def main() -> None:
