@@ -2,7 +2,9 @@
 the same as ``hgo run experiment=sp_fig1`` (see :mod:`hgo.app`; errors are one line, see
 :mod:`hgo.job`)."""
 
-from hgo.app import cli_main
+import sys
+
+from hgo.cli import run_app
 
 if __name__ == "__main__":
-    cli_main()
+    run_app(sys.argv[1:], prog=sys.argv[0])

@@ -10,14 +10,16 @@ import gc
 import sys
 
 
-def _run(args: list[str]) -> int:
+def run_app(args: list[str], prog: str = "hgo run") -> int:
+    """``hgo run``: the Hydra application (:mod:`hgo.app`) on ``args``; ``prog`` is the
+    command name Hydra and ``run.json`` see (``experiments/run.py`` passes its own)."""
     gc.disable()  # imports make ~1M lasting objects, no garbage: full passes cost ~0.07 s
     from hgo.app import cli_main
 
     gc.freeze()  # (later full passes skip them too)
     gc.enable()
 
-    sys.argv = ["hgo run", *args]
+    sys.argv = [prog, *args]
     cli_main()
     return 0
 
@@ -44,7 +46,7 @@ def _runs_command(name: str):
 
 
 COMMANDS = {
-    "run": (_run, "run an experiment: hgo run experiment=sp_fig1 [-m for sweeps] "
+    "run": (run_app, "run an experiment: hgo run experiment=sp_fig1 [-m for sweeps] "
                   "(Hydra overrides; hgo run --help lists the groups)"),
     "reproduce": (_reproduce, "run every figure and claim of the papers and write a report "
                               "(hgo reproduce --help)"),
