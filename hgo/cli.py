@@ -14,10 +14,11 @@ def run_app(args: list[str], prog: str = "hgo run") -> int:
     """``hgo run``: the Hydra application (:mod:`hgo.app`) on ``args``; ``prog`` is the
     command name Hydra and ``run.json`` see (``experiments/run.py`` passes its own)."""
     gc.disable()  # imports make ~1M lasting objects, no garbage: full passes cost ~0.07 s
-    from hgo.app import cli_main
-
-    gc.freeze()  # (later full passes skip them too)
-    gc.enable()
+    try:
+        from hgo.app import cli_main
+    finally:
+        gc.freeze()  # (later full passes skip them too)
+        gc.enable()
 
     sys.argv = [prog, *args]
     cli_main()
