@@ -9,7 +9,8 @@ parent loads the kernel and simulates, then draws the figures from the run's res
 writes the recording and ``metrics.csv``. The parent waits for the figures before it
 writes ``run.json`` and marks the run complete, so the outputs, statuses and errors are
 those of drawing in the run's own process: an exception raised by a figure is raised
-again in the parent.
+again in the parent; a child that dies without replying fails the run with a
+:class:`ChildProcessError`.
 
 Used by ``hgo run`` for single runs (not sweeps, whose jobs share one process and so
 import matplotlib once, nor ensembles) on Linux, where ``fork`` is the start method
