@@ -55,13 +55,13 @@ from hgo.postprocess import PostOutput
 from hgo.progress import bar
 from hgo.recording import atomic_output
 from hgo.runner import (
-    FIGURE_SETTINGS,
     RunInterrupted,
     _construct,
     _instantiate,
     blueprint,
     build_system,
     check_cost,
+    figure_nodes,
     job_config_yaml,
     recording_id,
     signals,
@@ -254,8 +254,7 @@ def prepare_ensemble(cfg: DictConfig) -> EnsemblePlan:
 def run_ensemble(cfg: DictConfig, out_dir: str | Path) -> EnsembleResult:
     """Plan, build, integrate and tabulate the members of ``cfg.ensemble``."""
     out_dir = Path(out_dir)
-    figures = [name for name, node in (cfg.get("figures") or {}).items()
-               if node is not None and name not in FIGURE_SETTINGS]
+    figures = figure_nodes(cfg)
     if figures:
         log.warning("ensemble: figures %s not applied (they draw one run; see "
                     "ensemble.reports)", ", ".join(figures))
