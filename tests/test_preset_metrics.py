@@ -10,9 +10,8 @@ from __future__ import annotations
 
 import json
 
-import pytest
-
 import preset_metrics as pm
+import pytest
 
 STORED = json.loads(pm.STORE.read_text())["cases"]
 SLOW = {"sp_ensemble"}  # 1000 members over 200 s: 18 s alone; left to --check
