@@ -449,7 +449,8 @@ def load_kernel(system: System, compiled: bool = True, method: str = "dopri5") -
     module = importlib.util.module_from_spec(spec)
     module.__dict__.update(_decorators(compiled))
     component = module.__dict__["component_jit"]
-    module.__dict__.update({k: component(fn) for k, fn in functions.items()})
+    module.__dict__.update({k: fn if _compiled_helper(fn) and compiled else component(fn)
+                            for k, fn in functions.items()})
     sys.modules[name] = module
     spec.loader.exec_module(module)
     _LOADED[key] = module
@@ -457,6 +458,12 @@ def load_kernel(system: System, compiled: bool = True, method: str = "dopri5") -
 
 
 _LOADED: dict[tuple, ModuleType] = {}
+
+
+def _compiled_helper(fn: object) -> bool:
+    """A ``kernel_helper`` (already a numba function, e.g. among a component's constants):
+    injected as it is, not compiled again as a component."""
+    return getattr(fn, "py_func", fn) is not fn
 
 
 def _layout_key(system: System, method: str, compiled: bool) -> tuple:

@@ -55,10 +55,10 @@ def _loop_observer(result):
 
 def _label(obs) -> str:
     p = obs.p
-    if int(p[1]) == 2:
-        return (rf"{obs.name}: $\varepsilon_1 = {p[8]:g} \to \varepsilon_2 = {p[9]:g}$ "
-                f"after $T_d = {p[3]:g}$ s")
-    return rf"{obs.name}: fixed $\varepsilon = {p[8]:g}$"
+    if p.n_gains == 2:
+        return (rf"{obs.name}: $\varepsilon_1 = {p.eps1:g} \to \varepsilon_2 = {p.eps2:g}$ "
+                f"after $T_d = {p.T_d:g}$ s")
+    return rf"{obs.name}: fixed $\varepsilon = {p.eps1:g}$"
 
 
 def fig1(result, path) -> None:

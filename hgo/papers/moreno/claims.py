@@ -57,7 +57,7 @@ def _q(overrides: tuple[str, ...], quantity: str, observer: str = "circle") -> f
 def _crossing(overrides: tuple[str, ...], level: float) -> float:
     """First t at which the run's x2-profile r(t) reaches ``level`` (root of r - level)."""
     c = run_in_memory(overrides).experiment.system.controller
-    t_on, tau = c.p[2], c.p[3]
+    t_on, tau = c.p.t_on, c.p.tau
     return float(brentq(lambda t: profile(t, c.p)[0] - level, t_on, t_on + tau))
 
 

@@ -21,7 +21,7 @@ def bad_companion(result) -> Trajectory:
     same plant, observers, solver and noise."""
     exp = result.experiment
     sysm = exp.system
-    a = float(sysm.controller.p[1]) if sysm.controller is not None else 0.0
+    a = sysm.controller.p.a if sysm.controller is not None else 0.0
     bad = System(sysm.plant, sysm.observers, profile_input("bad", a=a))
     ny = len(sysm.plant.output_names)
     return simulate(bad, exp.solver, exp.noise.sample(exp.solver.t_end, ny, exp.seed))
