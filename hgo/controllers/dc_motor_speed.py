@@ -32,7 +32,7 @@ import math
 
 import numpy as np
 
-from hgo.components import Controller, Params
+from hgo.core.components import Controller, Params
 from hgo.engine.jit import kernel_helper
 
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 
-from hgo.components import Controller, Params
+from hgo.core.components import Controller, Params
 
 
 def u(t, xhat, y, p, u_out):

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import math
 
-from hgo.components import Controller, Params
+from hgo.core.components import Controller, Params
 from hgo.engine.jit import kernel_helper, record_helper
 
 KINDS = {"bad": 0, "pulse": 1, "pulse_return": 2, "sin": 3}

@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-from hgo.components import Controller, Params
+from hgo.core.components import Controller, Params
 
 
 def u(t, xhat, y, p, u_out):

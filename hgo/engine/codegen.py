@@ -26,7 +26,7 @@ import warnings
 from pathlib import Path
 from types import ModuleType
 
-from hgo.components import no_update
+from hgo.core.components import no_update
 from hgo.engine import tableau
 from hgo.engine.jit import borrow_function, view2_function, view_function
 from hgo.engine.system import System
@@ -116,7 +116,7 @@ def _literal(value: object) -> str:
 
 
 def _records(system: System, names: dict) -> tuple[list[str], list[str]]:
-    """The record of each component with named parameters (:class:`hgo.components.Params`):
+    """The record of each component with named parameters (:class:`hgo.core.components.Params`):
     its class and an inlined builder reading the flat vector P at constant offsets, with
     the constants as literals; and, per component, the argument its functions get (the
     builder's call, or the positional view ``P[a:b]``)."""

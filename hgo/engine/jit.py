@@ -35,7 +35,7 @@ def record_helper(fn):
     In a kernel it is compiled into the calling component (a numba overload: nothing is
     cached apart from the kernel, so no cache entry names a record type); from plain
     Python it is the function itself, reading the same names from ``component.p`` (a
-    :class:`hgo.components.ParamVector`). ``fn.py_func`` is ``fn`` (as for a compiled
+    :class:`hgo.core.components.ParamVector`). ``fn.py_func`` is ``fn`` (as for a compiled
     helper), which also puts its file into the kernel's cache key."""
     register_jitable(error_model="numpy")(fn)
     fn.py_func = fn

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from hgo.components import Observer, Params
+from hgo.core.components import Observer, Params
 from hgo.plants.circle_form import CircleFormPlant
 
 

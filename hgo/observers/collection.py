@@ -46,8 +46,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from hgo.components import Observer, Params
-from hgo.errors import as_floats
+from hgo.core.components import Observer, Params
+from hgo.core.errors import as_floats
 
 SCALINGS = {"constant": 0.0, "high_gain": 1.0}
 

@@ -52,7 +52,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from hgo.components import Observer, Params
+from hgo.core.components import Observer, Params
 from hgo.engine.jit import record_helper
 
 #: Names of the discrete state entries (see module docstring).

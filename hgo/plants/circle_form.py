@@ -28,9 +28,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from hgo.components import Params, Plant, user_function
+from hgo.core.components import Params, Plant, user_function
 from hgo.engine.jit import kernel_helper
-from hgo.papers.moreno.sector import global_sector_lower
+from hgo.plants.sector import global_sector_lower
 
 
 @kernel_helper

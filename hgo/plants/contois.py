@@ -27,7 +27,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from hgo.components import Params, Plant
+from hgo.core.components import Params, Plant
 from hgo.engine.jit import kernel_helper
 
 

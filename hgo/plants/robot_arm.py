@@ -21,7 +21,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from hgo.components import Params, Plant
+from hgo.core.components import Params, Plant
 
 OUTPUTS = {"y": ["y"], "Hx": ["y", "x2"]}
 
