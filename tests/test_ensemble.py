@@ -53,7 +53,7 @@ def test_interpolated_key_follows_the_draw(compose, tmp_path):
     for system, value in zip(result.systems, nu1, strict=True):
         obs = system.observers[0]
         assert system.plant.p[0] == pytest.approx(value)
-        assert obs.p[5 + 2] == pytest.approx(value)  # M[0, 0] after n, law, p1, p2, b, K
+        assert obs.p.M[0, 0] == pytest.approx(value)
 
 
 def test_draws_are_seeded_and_checked():

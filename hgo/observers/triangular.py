@@ -28,8 +28,8 @@ from collections.abc import Sequence
 import numpy as np
 
 from hgo.core.components import Observer, Params
-from hgo.engine.jit import kernel_helper
 from hgo.core.errors import as_floats
+from hgo.engine.jit import kernel_helper
 
 LAWS = {"constant": 0, "sign_indefinite": 1, "dead_zone": 2}
 

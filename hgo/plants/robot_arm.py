@@ -45,6 +45,14 @@ def true_parameters(p) -> np.ndarray:
     return np.array([1.0 / p.I, p.m * p.g * p.l / (2.0 * p.I)])
 
 
+def dimassi_psi(x, u, out):
+    """psi(x, u) = [u, -sin x1] (1 x 2) of Dimassi et al. (25), regressor order A1, so that
+    x2' = psi(x, u) theta with theta = (1/I, m g l/(2 I)): the robot arm's instance of the
+    cascade observer's class (:mod:`hgo.observers.adaptive_cascade`)."""
+    out[0, 0] = u[0]
+    out[0, 1] = -math.sin(x[0])
+
+
 def robot_arm_plant(x0: Sequence[float] = (1.0, 1.0), I: float = 0.5, m: float = 1.0,  # noqa: E741
                     g: float = 9.81, l: float = 1.0, outputs: str = "y") -> Plant:  # noqa: E741
     """The arm (24)-(25) with x(0) = x0 = [q(0), q'(0)] (paper: [1, 1])."""
