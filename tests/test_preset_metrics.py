@@ -23,16 +23,19 @@ import pytest
 
 STORED = json.loads(pm.STORE.read_text())["cases"]
 SLOW = {"sp_ensemble"}  # 1000 members over 200 s: 18 s alone; left to --check
-#: case -> what moved with the fused multiply-adds (measured after b0789e6, load ~8: rows
-#: beyond 1e-9 relative / rows, and the largest relative difference)
+#: case -> what moved with the fused multiply-adds: rows beyond 1e-9 relative / rows, and
+#: the largest relative difference (measured after b0789e6, load ~8; the last bits, hence
+#: these numbers, also differ between a kernel compiled in the process and one loaded from
+#: numba's cache, as profile_input's docstring notes for the code before the port: the
+#: larger of the two is given)
 ROUNDING = {
-    **{name: "24/88 rows, max 7.8e-5 (df2max mean_sq_error_eta2)" for name in
+    **{name: "19-27/88 rows, max 1.1e-4 (df2max mean_sq_error_eta2)" for name in
        ("apa_fig1", "apa_fig2", "apa_readings", "apa_seeds")},
-    "apa_model": "42/87 rows, max 3.2e-6 (omega2 std_w2)",
-    "apa_noise": "23/87 rows, max 1.6e-4 (df2max mean_sq_error_eta2)",
-    "apa_nominal": "49/90 rows, max 3.9 (omega1 mean_sq_error_eta2, a round-off-floor "
-                   "value, noise-free run)",
-    "apa_readings_linear": "25/88 rows, max 4.3e-4 (df2max mean_sq_error_eta2)",
+    "apa_model": "42/87 rows, max 3.2e-6 (std_w2, std_late)",
+    "apa_noise": "18-23/87 rows, max 1.6e-4 (df2max mean_sq_error_eta2)",
+    "apa_nominal": "46-49/90 rows, max 3.9 (omega1 mean_sq_error_eta2, bias_w3: "
+                   "round-off-floor values of a noise-free run)",
+    "apa_readings_linear": "24-25/88 rows, max 4.3e-4 (df2max mean_sq_error_eta2)",
     **{name: "23/69 rows, max 2.9e-3 (t_sat_last, a step-end time)" for name in
        ("dhlm_delta", "dhlm_eps", "dhlm_example", "dhlm_sigma")},
     "dhlm_psi_at_xhat": "10/67 rows, max 3.3e-4 (t_sat_last)",
