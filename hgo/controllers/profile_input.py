@@ -94,16 +94,22 @@ def profile_input(kind: str = "pulse", a: float = 0.0, t_on: float = 5.0, tau: f
     if kind == "pulse_return" and not t_back >= t_on + tau:
         raise ValueError(f"controller.t_back must be >= t_on + tau = {t_on + tau}, got {t_back}")
     p = np.array([KINDS[kind], a, t_on, tau, level, amp, omega, t_back, RAMPS[ramp]], float)
-    return Controller(name=name, p=p, u=u, observer=None)
+    return Controller(name=name, p=p, u=u, observer=None, breaks=corners)
+
+
+def corners(p) -> list[float]:
+    """The instants where u jumps (linear ramp) or its higher derivatives do (smooth
+    ramp): the ramps' ends, the controller's break points (the engine ends a step at
+    each). The same sums as :func:`_ramp` compares t with, so the same floats."""
+    kind, t_on, tau, t_back = int(p[0]), float(p[2]), float(p[3]), float(p[7])
+    return {0: [], 1: [t_on, t_on + tau], 2: [t_on, t_on + tau, t_back, t_back + tau],
+            3: []}[kind]
 
 
 def breakpoints(c: Controller, t_end: float) -> list[float]:
     """Instants in (0, t_end) where u or its slope has a corner (a reference integrator
     restarts there)."""
-    kind, _, t_on, tau, _, _, _, t_back, _ = c.p
-    pts = {0: [], 1: [t_on, t_on + tau], 2: [t_on, t_on + tau, t_back, t_back + tau],
-           3: []}[int(kind)]
-    return [t for t in pts if 0 < t < t_end]
+    return [t for t in corners(c.p) if 0 < t < t_end]
 
 
 def input_period(c: Controller | None) -> float | None:
