@@ -6,8 +6,9 @@ at every noise sample (Delta = 0.01), each observer with its own copy of the pla
 side is locally Lipschitz: the correction powers are >= 1 (10 and 1.9 for the Omega2
 observer, 1 for the others), the powers < 1 of Omega2 (x2^0.1, x^2s^0.9) act on saturated
 arguments >= x2lo(y_s) > 0, and the saturations are Lipschitz kinks; the input switches (10,
-20, 35) are the schedule's break points: every step ends there (tests/test_breakpoints.py). Near s = 0 the term s^1.9 has a Hoelder-continuous derivative
-only: the method loses order there, not convergence, which is what the refinement checks.
+20, 35) are the schedule's break points: every step ends there (tests/test_breakpoints.py).
+Near s = 0 the term s^1.9 has a Hoelder-continuous derivative only: the method loses order
+there, not convergence, which is what the refinement checks.
 """
 
 from __future__ import annotations

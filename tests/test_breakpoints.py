@@ -10,14 +10,14 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from hgo.claims import run_in_memory, run_rows
-from hgo.components import Observer, Plant
 from hgo.controllers.profile_input import breakpoints, profile, profile_input
 from hgo.controllers.schedule import schedule_input
+from hgo.core.components import Observer, Plant
 from hgo.engine import codegen
 from hgo.engine import simulate as simulate_module
 from hgo.engine.simulate import Noise, SolverSettings, no_noise, simulate
 from hgo.engine.system import System
+from hgo.running.in_memory import run_in_memory, run_rows
 
 SWITCHES = (0.5, 1.25, 2.0)
 
