@@ -12,6 +12,8 @@ that line, and :func:`is_config_error` tells which errors are the user's configu
 
 from __future__ import annotations
 
+import errno
+
 import yaml
 
 
@@ -87,6 +89,10 @@ def one_line(err: BaseException) -> str:
             line = _omegaconf_line(e)
             if line:
                 return line
+    for e in chain:
+        if isinstance(e, OSError) and e.errno == errno.ENOSPC:
+            where = e.filename or "device"
+            return f"no space left on {where} ({e.strerror})"
     for e in chain:  # a builder's own message (Hydra wraps it in InstantiationException)
         if type(e) in (ValueError, TypeError, KeyError):
             return _first_line(str(e))

@@ -318,3 +318,113 @@ def test_multirun_resumed_into_its_sweep_directory(tmp_path):
     assert (sweep / "job0" / "metrics.csv").stat().st_mtime_ns == kept
     assert (sweep / "job1" / "metrics.csv").exists()
     assert out.count("skipped") + err.count("skipped") == 1
+
+
+# --- writes that cannot finish: a full disk, a stuck writer, Ctrl-C ------------------
+
+
+def _blocked_write(partial: Path):
+    """A stream function that writes a little and then never returns (as Rerun's flush
+    on a dead file writer)."""
+    def stream() -> bool:
+        import time
+
+        partial.write_bytes(b"x" * 100)
+        time.sleep(600)
+        return True
+    return stream
+
+
+def test_a_stuck_write_on_a_full_disk_ends_within_seconds(tmp_path, monkeypatch):
+    """The writer stops making progress while the disk has no space: OSError(ENOSPC)
+    naming the file after ~FULL_DISK_SECONDS, the writing process killed."""
+    import errno
+    import time
+
+    import pytest
+
+    from hgo import recording
+    from hgo.errors import one_line
+
+    monkeypatch.setattr(recording, "_free_bytes", lambda folder: 0)
+    partial = tmp_path / "recording.rrd.partial"
+    t0 = time.monotonic()
+    with pytest.raises(OSError) as info:
+        recording.bounded_write(partial, _blocked_write(partial))
+    assert time.monotonic() - t0 < 10
+    assert info.value.errno == errno.ENOSPC
+    assert one_line(info.value).startswith(f"no space left on {partial} (")
+
+
+def test_a_stalled_write_ends_after_the_stall_limit(tmp_path, monkeypatch):
+    import time
+
+    import pytest
+
+    from hgo import recording
+
+    monkeypatch.setattr(recording, "STALL_SECONDS", 0.5)
+    partial = tmp_path / "r.partial"
+    t0 = time.monotonic()
+    with pytest.raises(TimeoutError, match="made no progress for 0.5 s"):
+        recording.bounded_write(partial, _blocked_write(partial))
+    assert time.monotonic() - t0 < 10
+
+
+def test_ctrl_c_ends_a_blocked_write_at_once(tmp_path):
+    """SIGINT while the writer is blocked (where Rerun's native flush ignored it):
+    KeyboardInterrupt within a second, the writing process gone."""
+    import signal
+    import time
+
+    import pytest
+
+    from hgo import recording
+
+    partial = tmp_path / "r.partial"
+    previous = signal.signal(signal.SIGALRM, lambda *a: signal.raise_signal(signal.SIGINT))
+    signal.setitimer(signal.ITIMER_REAL, 0.5)
+    t0 = time.monotonic()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            recording.bounded_write(partial, _blocked_write(partial))
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+    assert time.monotonic() - t0 < 3
+
+
+def _mount_tmpfs(folder: Path, size: str) -> bool:
+    folder.mkdir()
+    try:
+        done = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs",
+                               str(folder)], capture_output=True, timeout=10)
+    except (OSError, subprocess.TimeoutExpired):
+        return False
+    return done.returncode == 0
+
+
+def test_full_tmpfs_ends_the_run_with_one_line(tmp_path):
+    """A real full disk (a 1 MiB tmpfs; needs root): the run ends with exit 1 and
+    ``error: no space left on <dir>/recording.rrd.partial (...)``, no complete-looking
+    recording, within seconds (Rerun's writer alone hung in 4 of 15 tries)."""
+    import time
+
+    import pytest
+
+    disk = tmp_path / "disk"
+    if not _mount_tmpfs(disk, "1m"):
+        pytest.skip("cannot mount a tmpfs here (not root?)")
+    try:
+        t0 = time.monotonic()
+        proc = _run_cli([*SHORT, "solver.t_end=200", f"hydra.run.dir={disk}/run"], tmp_path)
+        _, err = proc.communicate(timeout=120)
+        elapsed = time.monotonic() - t0
+        assert proc.returncode == 1, err
+        lines = [ln for ln in err.splitlines() if ln.strip()]
+        assert lines == [f"error: no space left on {disk}/run/recording.rrd.partial "
+                         "(No space left on device, 0 MiB free)"], err
+        assert not (disk / "run" / "recording.rrd").exists()
+        assert elapsed < 60
+    finally:
+        subprocess.run(["umount", "-l", str(disk)], capture_output=True, timeout=30)
