@@ -53,7 +53,8 @@ def _yaml_line(err: yaml.YAMLError) -> str:
     mark = getattr(err, "problem_mark", None)
     where = f"{mark.name}:{mark.line + 1}:{mark.column + 1}" if mark else "YAML"
     problem = getattr(err, "problem", None) or _first_line(str(err))
-    return f"{where}: YAML syntax error: {problem}"
+    kind = "YAML" if isinstance(err, yaml.composer.ComposerError) else "YAML syntax error"
+    return f"{where}: {kind}: {problem}"
 
 
 def _missing_config_line(err) -> str:

@@ -9,10 +9,24 @@ large ensemble splits across jobs and the shards' tables concatenate to the whol
 from __future__ import annotations
 
 import itertools
+import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
+
+
+def check_grid(grid: Mapping[str, Sequence[Any]]) -> None:
+    """Raise ValueError naming a key whose value is not a non-empty list."""
+    for key, values in grid.items():
+        if isinstance(values, str | bytes) or not isinstance(values, Sequence) or not values:
+            raise ValueError(f"ensemble.grid.{key}: expected a non-empty list of values, "
+                             f"got {_short(values)}")
+
+
+def _short(value: Any, limit: int = 80) -> str:
+    text = repr(value)
+    return text if len(text) <= limit else f"{text[:limit]}... ({len(text)} characters)"
 
 
 def expand_grid(grid: Mapping[str, Sequence[Any]]) -> dict[str, list[Any]]:
@@ -21,10 +35,7 @@ def expand_grid(grid: Mapping[str, Sequence[Any]]) -> dict[str, list[Any]]:
     An empty grid is one point without values. Raises ValueError naming a key whose value
     is not a non-empty list.
     """
-    for key, values in grid.items():
-        if isinstance(values, str | bytes) or not isinstance(values, Sequence) or not values:
-            raise ValueError(f"ensemble.grid.{key}: expected a non-empty list of values, "
-                             f"got {values!r}")
+    check_grid(grid)
     keys = list(grid)
     points = list(itertools.product(*(list(grid[k]) for k in keys)))
     return {k: [p[j] for p in points] for j, k in enumerate(keys)}
@@ -32,7 +43,7 @@ def expand_grid(grid: Mapping[str, Sequence[Any]]) -> dict[str, list[Any]]:
 
 def grid_size(grid: Mapping[str, Sequence[Any]]) -> int:
     """Number of grid points (1 for an empty grid)."""
-    return int(np.prod([len(v) for v in grid.values()])) if grid else 1
+    return math.prod(len(v) for v in grid.values()) if grid else 1  # (exact: no overflow)
 
 
 def parse_shard(spec: str | None) -> tuple[int, int]:
@@ -48,6 +59,12 @@ def parse_shard(spec: str | None) -> tuple[int, int]:
         raise ValueError(f"ensemble.shard must be 'i/N' with integers 0 <= i < N, "
                          f"got {spec!r}")
     return i, n
+
+
+def shard_size(n_members: int, spec: str | None) -> int:
+    """Number of members of shard ``spec`` (as :func:`shard_indices`, without the array)."""
+    i, n = parse_shard(spec)
+    return n_members // n + (1 if i < n_members % n else 0)
 
 
 def shard_indices(n_members: int, spec: str | None) -> np.ndarray:

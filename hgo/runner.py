@@ -182,16 +182,32 @@ def solver_settings(cfg: DictConfig) -> SolverSettings:
     return settings
 
 
-def check_cost(system: System, solver: SolverSettings, noise: NoiseModel) -> None:
-    """Refuse a run whose output rows, noise samples or steps, estimated now, are too many
-    (:func:`hgo.validate.check_cost`)."""
+@dataclass
+class RunSize:
+    """A run's size, estimated before it is made: output rows x columns, noise samples,
+    integration steps (a lower estimate)."""
+
+    rows: int
+    columns: int
+    noise: int
+    steps: float
+
+
+def run_size(system: System, solver: SolverSettings, noise: NoiseModel) -> RunSize:
     n_rows = int(round(solver.t_end / solver.dt_out)) + 1
     ny, nu = len(system.plant.output_names), len(system.plant.input_names)
     n_cols = system.nz + system.nd + 2 * ny + nu + system.nxh
     period = noise.period if noise.kind != "none" else math.inf
     n_noise = int(math.ceil(solver.t_end / period)) + 1 if math.isfinite(period) else 1
-    steps = solver.min_steps(system.spectral_radius(), period)
-    _check_sizes(n_rows, n_cols, n_noise * ny, steps, solver.max_output_rows,
+    return RunSize(n_rows, n_cols, n_noise * ny, solver.min_steps(system.spectral_radius(),
+                                                                   period))
+
+
+def check_cost(system: System, solver: SolverSettings, noise: NoiseModel) -> None:
+    """Refuse a run whose output rows, noise samples or steps, estimated now, are too many
+    (:func:`hgo.validate.check_cost`)."""
+    size = run_size(system, solver, noise)
+    _check_sizes(size.rows, size.columns, size.noise, size.steps, solver.max_output_rows,
                  solver.max_steps)
 
 

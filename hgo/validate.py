@@ -132,3 +132,33 @@ def check_cost(n_rows: int, n_columns: int, n_noise: int, n_steps: float,
                           f"integration steps, over solver.max_steps = {max_steps:.3g}",
                           "raise solver.h_max (or noise.period, solver.dt_out for rk4), "
                           "lower solver.t_end, or raise solver.max_steps")
+
+
+#: Memory of one ensemble member beside its noise and trajectory (its config node, System,
+#: parameters, metric rows): 4-30 KB measured (sp_ensemble 4.1 KB, ak_tradeoff_grid
+#: 9.4 KB, sp_fig3_grid 30 KB), so 4 KB is a lower estimate. Building a member took
+#: ~0.6 ms (sp_ensemble, 2,000 members in 1.27 s, load ~6).
+MEMBER_BYTES = 4096
+MEMBER_BUILD_SECONDS = 6e-4
+
+
+def check_ensemble_cost(n_members: int, member_bytes: int, member_steps: float,
+                        max_steps: int, memory: int | None = None,
+                        key: str = "ensemble.size") -> None:
+    """Refuse an ensemble whose members, estimated before any is made, need more than half
+    the free memory or more integration steps in all than ``solver.max_steps``."""
+    memory = free_memory() if memory is None else memory
+    need = n_members * (MEMBER_BYTES + member_bytes)
+    steps = n_members * member_steps
+    estimate = (f"the ensemble has {n_members:.4g} members (grid points x ensemble.size, "
+                f"then the shard): at least ~{need / 2 ** 30:.3g} GiB, {steps:.3g} "
+                f"integration steps and ~{n_members * MEMBER_BUILD_SECONDS:.3g} s to build "
+                "the members")
+    change = ("lower ensemble.size or shorten the lists of ensemble.grid, or split the "
+              "members across jobs with ensemble.shard=i/N")
+    if need > memory // 2:
+        raise ConfigError(key, f"{estimate}, over half the free memory "
+                          f"({memory / 2 ** 30:.3g} GiB)", change)
+    if steps > max_steps:
+        raise ConfigError(key, f"{estimate}, over solver.max_steps = "
+                          f"{max_steps:.3g}", change + ", or raise solver.max_steps")

@@ -55,3 +55,73 @@ def test_sp_bounds_refuses_a_p_that_is_not_positive_definite():
 
     with pytest.raises(ValueError, match=r"P must be positive definite .*\[-1.0, 1.0\]"):
         sp_bounds(P=[[1, 0], [0, -1]])
+
+
+# --- a corpus of inputs: one line each, checked before any integration --------------
+
+SP = "experiment=sp_fig1"
+ENS = "experiment=sp_ensemble"
+GRID10 = "[" + ",".join(str(k) for k in range(10)) + "]"
+
+CORPUS: list[tuple[tuple[str, ...], str]] = [
+    # members estimated up front (MemoryError after 1-20 s before)
+    ((ENS, "ensemble.size=100000000"), "ensemble.size: the ensemble has 1e+08 members"),
+    ((ENS, "ensemble.size=1000000000000"), "over half the free memory"),
+    ((ENS, "ensemble.size=1", "++ensemble.grid={seed:" + GRID10 + ",plant.nu1:" + GRID10
+      + ",plant.nu2:" + GRID10 + ",observer.sign_indefinite.p2:" + GRID10 + ",observer.sign_indefinite.p1:"
+      + GRID10 + ",observer.sign_indefinite.xhat0:" + "[" + ",".join(["[0,0]"] * 10) + "]"
+      + ",observer.sign_indefinite.b:" + GRID10 + ",observer.sign_indefinite.r0:" + GRID10
+      + ",noise.amplitude:" + GRID10 + "}"), "ensemble.grid: the ensemble has 1e+09 members"),
+    ((ENS, "ensemble.size=1000000", "solver.h_max=0.001"), "over solver.max_steps"),
+    # iterative numerics fed a NaN (looped forever in the bound's zoom)
+    ((SP, "postprocess.sp_bounds.P=[[1,0],[0,-1]]"), "P must be positive definite"),
+]
+
+
+def _config_line(overrides: tuple[str, ...]) -> str:
+    from hgo.config import compose
+    from hgo.errors import one_line
+    from hgo.job import check_config
+
+    try:
+        check_config(compose(list(overrides)))
+    except Exception as err:  # noqa: BLE001 - any error is what the case looks at
+        return one_line(err)
+    return "(accepted)"
+
+
+@pytest.mark.parametrize("case", CORPUS, ids=lambda c: " ".join(c[0])[:60])
+def test_bad_input_gives_one_line(case):
+    overrides, expected = case
+    line = _config_line(overrides)
+    assert expected in line and "\n" not in line and len(line) < 600, line
+
+
+LAUGHS = "# @package _global_\ndefaults:\n  - sp_fig1\na: &a [1, 1, 1, 1, 1, 1, 1, 1, 1, 1]\n" + \
+    "".join(f"{b}: &{b} [{', '.join(['*' + a] * 10)}]\n" for a, b in zip("abcdefgh", "bcdefghi",
+                                                                      strict=True))
+
+
+def test_nested_yaml_aliases_in_a_user_preset_are_refused(tmp_path):
+    """A "billion laughs" (9 levels of 10 aliases: 1e9 values) ran for minutes and
+    exhausted memory; now one line with the file, at once."""
+    import time
+
+    (tmp_path / "experiment").mkdir()
+    (tmp_path / "experiment" / "laughs.yaml").write_text(LAUGHS)
+    t0 = time.perf_counter()
+    line = _config_line((f"hydra.searchpath=[file://{tmp_path}]", "experiment=laughs"))
+    assert time.perf_counter() - t0 < 10
+    assert line.startswith(f"{tmp_path}/experiment/laughs.yaml:") and \
+        "aliases expand to more than 100,000 values" in line, line
+
+
+def test_a_few_yaml_aliases_still_work(tmp_path):
+    (tmp_path / "experiment").mkdir()
+    (tmp_path / "experiment" / "alias.yaml").write_text(
+        "# @package _global_\ndefaults:\n  - sp_fig1\nplant:\n  x0: &x0 [1.0, 2.0]\n"
+        "observer:\n  sign_indefinite:\n    xhat0: *x0\n")
+    from hgo.config import compose
+
+    cfg = compose([f"hydra.searchpath=[file://{tmp_path}]", "experiment=alias"])
+    assert list(cfg.observer.sign_indefinite.xhat0) == [1.0, 2.0]
