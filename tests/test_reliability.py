@@ -61,17 +61,17 @@ def test_sp_bounds_refuses_a_p_that_is_not_positive_definite():
 
 SP = "experiment=sp_fig1"
 ENS = "experiment=sp_ensemble"
+SI = "observer.sign_indefinite"
 GRID10 = "[" + ",".join(str(k) for k in range(10)) + "]"
 
 CORPUS: list[tuple[tuple[str, ...], str]] = [
     # members estimated up front (MemoryError after 1-20 s before)
     ((ENS, "ensemble.size=100000000"), "ensemble.size: the ensemble has 1e+08 members"),
     ((ENS, "ensemble.size=1000000000000"), "over half the free memory"),
-    ((ENS, "ensemble.size=1", "++ensemble.grid={seed:" + GRID10 + ",plant.nu1:" + GRID10
-      + ",plant.nu2:" + GRID10 + ",observer.sign_indefinite.p2:" + GRID10 + ",observer.sign_indefinite.p1:"
-      + GRID10 + ",observer.sign_indefinite.xhat0:" + "[" + ",".join(["[0,0]"] * 10) + "]"
-      + ",observer.sign_indefinite.b:" + GRID10 + ",observer.sign_indefinite.r0:" + GRID10
-      + ",noise.amplitude:" + GRID10 + "}"), "ensemble.grid: the ensemble has 1e+09 members"),
+    ((ENS, "ensemble.size=1", "++ensemble.grid={" + ",".join(f"{key}:{GRID10}" for key in (
+        "seed", "plant.nu1", "plant.nu2", "noise.amplitude", *(f"{SI}.{k}" for k in (
+            "p1", "p2", "b", "r0"))) + f",{SI}.xhat0:[" + ",".join(["[0,0]"] * 10) + "]}"),
+     "ensemble.grid: the ensemble has 1e+09 members"),
     ((ENS, "ensemble.size=1000000", "solver.h_max=0.001"), "over solver.max_steps"),
     # iterative numerics fed a NaN (looped forever in the bound's zoom)
     ((SP, "postprocess.sp_bounds.P=[[1,0],[0,-1]]"), "P must be positive definite"),
