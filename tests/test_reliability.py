@@ -18,7 +18,7 @@ import pytest
 def test_zoom_refuses_a_nan_bracket_instead_of_looping():
     """``_zoom`` waited for ``hi - lo < xatol``, never true for NaN (P not positive
     definite gave s_min = NaN): now one error naming the values."""
-    from hgo.lmi import NonFiniteError
+    from hgo.core.lmi import NonFiniteError
     from hgo.papers.sanfelice_praly.bounds import _zoom, minimise_over_s
 
     with pytest.raises(NonFiniteError, match="lo = nan"):
@@ -39,7 +39,7 @@ def test_zoom_ends_where_float_spacing_stops_the_bracket():
 def test_bisection_refuses_nan_and_stops_at_float_spacing():
     """A NaN end used to return ``good`` unchanged (NaN comparisons are false); an rtol
     below float spacing now ends at adjacent floats."""
-    from hgo.lmi import NonFiniteError, bisect
+    from hgo.core.lmi import NonFiniteError, bisect
 
     with pytest.raises(NonFiniteError, match="bad = nan"):
         bisect(lambda x: x < 1, 0.0, math.nan, 1e-6)
@@ -70,7 +70,7 @@ CORPUS: list[tuple[tuple[str, ...], str]] = [
     ((ENS, "ensemble.size=1000000000000"), "over half the free memory"),
     ((ENS, "ensemble.size=1", "++ensemble.grid={" + ",".join(f"{key}:{GRID10}" for key in (
         "seed", "plant.nu1", "plant.nu2", "noise.amplitude", *(f"{SI}.{k}" for k in (
-            "p1", "p2", "b", "r0"))) + f",{SI}.xhat0:[" + ",".join(["[0,0]"] * 10) + "]}"),
+            "p1", "p2", "b", "r0")))) + f",{SI}.xhat0:[" + ",".join(["[0,0]"] * 10) + "]}"),
      "ensemble.grid: the ensemble has 1e+09 members"),
     ((ENS, "ensemble.size=1000000", "solver.h_max=0.001"), "over solver.max_steps"),
     # iterative numerics fed a NaN (looped forever in the bound's zoom)
@@ -79,9 +79,9 @@ CORPUS: list[tuple[tuple[str, ...], str]] = [
 
 
 def _config_line(overrides: tuple[str, ...]) -> str:
-    from hgo.config import compose
-    from hgo.errors import one_line
-    from hgo.job import check_config
+    from hgo.core.config import compose
+    from hgo.core.errors import one_line
+    from hgo.running.job import check_config
 
     try:
         check_config(compose(list(overrides)))
@@ -121,7 +121,7 @@ def test_a_few_yaml_aliases_still_work(tmp_path):
     (tmp_path / "experiment" / "alias.yaml").write_text(
         "# @package _global_\ndefaults:\n  - sp_fig1\nplant:\n  x0: &x0 [1.0, 2.0]\n"
         "observer:\n  sign_indefinite:\n    xhat0: *x0\n")
-    from hgo.config import compose
+    from hgo.core.config import compose
 
     cfg = compose([f"hydra.searchpath=[file://{tmp_path}]", "experiment=alias"])
     assert list(cfg.observer.sign_indefinite.xhat0) == [1.0, 2.0]

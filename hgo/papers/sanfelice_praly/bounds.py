@@ -72,7 +72,7 @@ from typing import Literal
 
 import numpy as np
 
-from hgo.lmi import MAX_ROUNDS, require_finite
+from hgo.core.lmi import MAX_ROUNDS, require_finite
 
 __all__ = [
     "Reading14",
@@ -374,7 +374,7 @@ def _zoom(log_f: Callable[[np.ndarray], np.ndarray], lo: float, hi: float,
     ``n`` points per round, the bracket shrunk to the two cells around the smallest value
     (a factor (n - 1) / 2 per round) until narrower than ``xatol``. Vectorised, so a
     handful of calls instead of scipy's ~50 scalar ones (and no scipy.optimize import).
-    Stops after :data:`hgo.lmi.MAX_ROUNDS` rounds or when float spacing is reached; a
+    Stops after :data:`hgo.core.lmi.MAX_ROUNDS` rounds or when float spacing is reached; a
     NaN/inf bracket raises (``hi - lo < xatol`` is never true for NaN: it looped forever)."""
     require_finite("minimising the bound over s (Sanfelice & Praly (14))", lo=lo, hi=hi)
     for _ in range(MAX_ROUNDS):

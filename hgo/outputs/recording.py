@@ -449,7 +449,7 @@ def _free_bytes(folder: Path) -> int:
 
 
 def _disk_full(path: Path) -> OSError:
-    """ENOSPC naming ``path`` and the space left (:func:`hgo.errors.one_line` shows it as
+    """ENOSPC naming ``path`` and the space left (:func:`hgo.core.errors.one_line` shows it as
     ``no space left on <path> (...)``)."""
     return OSError(errno.ENOSPC, f"No space left on device, {_free_bytes(path.parent) / 2**20:.3g} "
                    "MiB free", str(path))
@@ -468,7 +468,7 @@ def atomic_output(path: str | Path) -> Iterator[Path]:
     partial = partial_path(path)
     try:
         yield partial
-    except OSError as err:  # name the file (a full disk: see hgo.errors.one_line)
+    except OSError as err:  # name the file (a full disk: see hgo.core.errors.one_line)
         if err.errno == errno.ENOSPC and not err.filename:
             raise _disk_full(partial) from err
         raise
