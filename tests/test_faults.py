@@ -428,3 +428,90 @@ def test_full_tmpfs_ends_the_run_with_one_line(tmp_path):
         assert elapsed < 60
     finally:
         subprocess.run(["umount", "-l", str(disk)], capture_output=True, timeout=30)
+
+
+# --- SIGTERM, a compile interrupted --------------------------------------------------
+
+
+def test_sigterm_ends_a_run_like_ctrl_c(tmp_path):
+    """SIGTERM (kill, a scheduler) ended the run at once without marking it: now exit
+    130, one error line, metrics.csv and run.json say interrupted."""
+    import json
+    import signal
+    import time
+
+    import pandas as pd
+
+    run_dir = tmp_path / "long"
+    proc = _run_cli(["experiment=sp_oscillation", "postprocess=none", "solver.t_end=100000",
+                     "solver.dt_out=1", "solver.h_max=0.001", "metrics.window=5",
+                     f"hydra.run.dir={run_dir}"], tmp_path)
+    for line in proc.stdout:
+        if "integrating" in line:
+            break
+    time.sleep(1.0)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    errors = [ln for ln in err.splitlines() if ln.startswith("error: ")]
+    assert len(errors) == 1 and "interrupted" in errors[0], err
+    assert set(pd.read_csv(run_dir / "metrics.csv").status) == {"interrupted"}
+    assert json.loads((run_dir / "run.json").read_text())["status"].startswith("interrupted")
+
+
+def test_ctrl_c_while_compiling_says_so_and_stops_when_compiled(capfd):
+    """The kernel call is stuck (numba compiling, ~6 s): Ctrl-C shows one line saying the
+    run stops once compiled, and the call returns as soon as it does."""
+    import signal
+    import time
+
+    import numpy as np
+
+    from hgo.engine.simulate import _interruptible
+
+    ctl = np.zeros(1)
+    previous = signal.signal(signal.SIGALRM, lambda *a: signal.raise_signal(signal.SIGINT))
+    signal.setitimer(signal.ITIMER_REAL, 0.2)
+    t0 = time.monotonic()
+    try:
+        value = _interruptible(lambda: time.sleep(1.5) or "compiled", (), ctl)
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+    assert value == "compiled" and ctl[0] == 1 and time.monotonic() - t0 < 5
+    assert capfd.readouterr().err == ("interrupted: stopping once numba has compiled the "
+                                      "kernel (Ctrl-C again to stop at once)\n")
+
+
+ENVELOPE = textwrap.dedent('''
+    import warnings
+    warnings.simplefilter("always")
+    import numpy as np
+    from hgo.outputs.decimate import envelope
+    from hgo.outputs.recording import Series
+    t = np.arange(1000) * 0.01
+    _, (s,) = envelope(t, [Series("/x", ["a"], np.sin(t)[:, None])], 64)
+    print(float(s.values.sum()))
+''')
+
+
+def test_garbage_in_hgos_own_numba_cache_is_repaired_with_one_warning(tmp_path):
+    """hgo's own cached numba functions called from Python (the decimated recording's
+    envelope): garbage in their cache files failed the run after the simulation; now one
+    warning, the same result, and the next run is silent."""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "nb"), "PYTHONPATH": str(ROOT)}
+
+    def run() -> subprocess.CompletedProcess:
+        return subprocess.run([sys.executable, "-c", ENVELOPE], env=env, check=True,
+                              capture_output=True, text=True, timeout=300)
+
+    value = float(run().stdout)
+    files = [p for p in (tmp_path / "nb").rglob("*.nb[ic]") if "decimate" in p.name]
+    assert {p.suffix for p in files} == {".nbi", ".nbc"}
+    for path in files:
+        path.write_bytes(b"garbage" * 3)
+    out = run()
+    assert float(out.stdout) == value
+    assert out.stderr.count("RuntimeWarning") == 1 and "is damaged" in out.stderr, out.stderr
+    out = run()
+    assert float(out.stdout) == value and "Warning" not in out.stderr

@@ -94,8 +94,9 @@ class EnsembleConf:
 
     size: int = 0
     seed: int = 0
-    vary: dict[str, Any] = field(default_factory=dict)
-    grid: dict[str, Any] = field(default_factory=dict)
+    # Optional: ``ensemble.vary=null`` clears a preset's (``={}`` merges, keeping it)
+    vary: dict[str, Any] | None = field(default_factory=dict)
+    grid: dict[str, Any] | None = field(default_factory=dict)
     shard: str | None = None
     reports: dict[str, Any] = field(default_factory=dict)
 

@@ -26,6 +26,10 @@ class ConfigError(ValueError):
         super().__init__(text)
 
 
+class PlainError(Exception):
+    """An error whose message is the whole line :func:`one_line` gives (no type name)."""
+
+
 def _chain(err: BaseException) -> list[BaseException]:
     out: list[BaseException] = []
     while err is not None and err not in out:
@@ -74,8 +78,8 @@ def one_line(err: BaseException) -> str:
 
     chain = _chain(err)
     for e in chain:
-        if isinstance(e, ConfigError):
-            return str(e)
+        if isinstance(e, ConfigError | PlainError):
+            return _first_line(str(e))
     from hydra.errors import OverrideParseException
 
     for e in chain:

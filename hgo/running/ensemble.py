@@ -126,12 +126,22 @@ def _group(node) -> dict:
         else dict(node or {})
 
 
+def check_grid_seeds(grid: Mapping[str, Any]) -> None:
+    """``ensemble.grid.seed`` holds integers >= 0 (0.5 and 1.5 were truncated to 0 and 1;
+    -1 failed in numpy with "expected non-negative integer")."""
+    for value in grid.get("seed") or []:
+        if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value < 2 ** 63:
+            raise ValueError(f"ensemble.grid.seed: {value!r} is not a seed (allowed: "
+                             f"integers >= 0), in {str(grid['seed'])[:80]}")
+
+
 def member_count(cfg: DictConfig) -> int:
     """Number of members :func:`plan_members` would make (grid points x replicates, then
     the shard), computed without making them."""
     ens = cfg.ensemble
     grid = _group(ens.get("grid"))
     check_grid(grid)
+    check_grid_seeds(grid)
     reps = max(int(ens.size), 1 if grid else 0)
     return shard_size(grid_size(grid) * reps, ens.get("shard"))
 

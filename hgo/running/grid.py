@@ -54,20 +54,32 @@ def parse_shard(spec: str | None) -> tuple[int, int]:
         i, n = (int(part) for part in str(spec).split("/"))
     except ValueError:
         raise ValueError(f"ensemble.shard must be 'i/N' with integers 0 <= i < N, "
-                         f"got {spec!r}") from None
+                         f"got {str(spec)[:40]!r}") from None
     if not 0 <= i < n:
         raise ValueError(f"ensemble.shard must be 'i/N' with integers 0 <= i < N, "
                          f"got {spec!r}")
     return i, n
 
 
+def _checked_shard(n_members: int, spec: str | None) -> tuple[int, int]:
+    """``parse_shard``, and no empty shard: N at most the member count (``0/10000000000``
+    gave "object of type 'int' has no len()", ``3/4`` of 3 members "at least one member
+    is required")."""
+    i, n = parse_shard(spec)
+    if n > n_members:
+        raise ValueError(f"ensemble.shard: '{spec}' splits {n_members:,} member(s) into "
+                         f"{n:,} shards, so some are empty (allowed: 'i/N' with N at most "
+                         f"{n_members:,})")
+    return i, n
+
+
 def shard_size(n_members: int, spec: str | None) -> int:
     """Number of members of shard ``spec`` (as :func:`shard_indices`, without the array)."""
-    i, n = parse_shard(spec)
+    i, n = _checked_shard(n_members, spec)
     return n_members // n + (1 if i < n_members % n else 0)
 
 
 def shard_indices(n_members: int, spec: str | None) -> np.ndarray:
     """Indices of the members of shard ``spec`` (contiguous blocks, sizes differ by <= 1)."""
-    i, n = parse_shard(spec)
+    i, n = _checked_shard(n_members, spec)
     return np.array_split(np.arange(n_members), n)[i]

@@ -42,7 +42,7 @@ from hgo.outputs.metrics import metrics_table, status_word
 from hgo.outputs.recording import Series, atomic_output, time_series_blueprint
 from hgo.outputs.runs import write_run_json
 from hgo.postprocess import PostOutput
-from hgo.running.figures import draw_figures, figure_settings
+from hgo.running.figures import check_figures, draw_figures, figure_settings
 from hgo.running.progress import compile_progress
 from hgo.running.results import Experiment, RunResult
 
@@ -207,13 +207,24 @@ def build_postprocessors(cfg: DictConfig, system: System, solver: SolverSettings
     return post
 
 
+def check_single_run(cfg: DictConfig) -> None:
+    """``ensemble.shard`` on a single run was silently ignored (``ensemble.vary`` stays
+    allowed: ``ensemble.size=0`` runs an ensemble preset's base config, tests do)."""
+    if (cfg.get("ensemble") or {}).get("shard"):
+        raise ConfigError("ensemble.shard", "applies to ensembles only; this is a single "
+                          "run (ensemble.size = 0, no ensemble.grid)",
+                          "set ensemble.size >= 1 or ensemble.grid, or drop ensemble.shard")
+
+
 def build(cfg: DictConfig) -> Experiment:
     """Check the values, instantiate and check every component against the others and the
     run's size: raises ValueError (mostly :class:`ConfigError`) naming the bad key."""
     check_values(cfg)
+    check_single_run(cfg)
     solver = solver_settings(cfg)
     vacuous_factor(cfg)
     figure_settings(cfg)
+    check_figures(cfg)
     recording_settings(cfg)
     system = build_system(cfg)
     check_split(system, solver)
