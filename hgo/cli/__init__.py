@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import gc
+import signal
 import sys
 
 
@@ -21,8 +22,16 @@ def run_app(args: list[str], prog: str = "hgo run") -> int:
         gc.enable()
 
     sys.argv = [prog, *args]
+    signal.signal(signal.SIGTERM, _terminated)
     cli_main()
     return 0
+
+
+def _terminated(signum, frame) -> None:
+    """SIGTERM (``kill``, a scheduler's time limit) ends a run as Ctrl-C does: the kernel
+    stops within a step, outputs up to then are written and marked interrupted, exit 130
+    (it ended the process at once, marking nothing)."""
+    raise KeyboardInterrupt("interrupted by SIGTERM")
 
 
 def _reproduce(args: list[str]) -> int:

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import math
 import pickle
+import sys
 import threading
 import warnings
 from dataclasses import dataclass, replace
@@ -83,6 +84,10 @@ class SolverSettings:
             value = getattr(self, key)
             if not (value > 0 and math.isfinite(value)):
                 raise ConfigError(f"solver.{key}", f"must be > 0 and finite, got {value}")
+        if not 1e-15 <= self.rtol < 1:
+            raise ConfigError("solver.rtol", f"must be in [1e-15, 1) (a relative error; "
+                              f"below 1e-15 it asks for more than double precision), got "
+                              f"{self.rtol}", "[1e-15, 1)")
         for key in ("h_max", "state_bound"):  # inf: no cap
             if not getattr(self, key) > 0:
                 raise ConfigError(f"solver.{key}", f"must be > 0, got {getattr(self, key)}",
@@ -173,6 +178,9 @@ def _kernel(system: System, method: str):
         return load_kernel(system, compiled=False, method=method)
 
 
+STOP_NOTICE_S = 0.5  # a kernel that has not stopped this long after Ctrl-C is compiling
+
+
 def _interruptible(fn, args: tuple, ctl: np.ndarray):
     """``fn(*args)`` in a worker thread; Ctrl-C in the main thread sets ``ctl[0]``, which the
     kernel checks after every step: it returns (status 6) within one step, and its
@@ -195,7 +203,11 @@ def _interruptible(fn, args: tuple, ctl: np.ndarray):
             pass
     except KeyboardInterrupt:
         ctl[0] = 1
-        done.wait()
+        if not done.wait(STOP_NOTICE_S):  # the kernel checks ctl each step: compiling
+            sys.stderr.write("interrupted: stopping once numba has compiled the kernel "
+                             "(Ctrl-C again to stop at once)\n")
+            sys.stderr.flush()
+            done.wait()
     if "error" in out:
         raise out["error"]
     return out["value"]

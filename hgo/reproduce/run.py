@@ -163,8 +163,31 @@ def _progress(k: int, n: int, text: str, t0: float) -> None:
     print(f"[{k}/{n}] {text} ({time.perf_counter() - t0:.1f} s)", flush=True)
 
 
+def failures(plan: list[Job], claim_files: dict[str, Path]) -> list[str]:
+    """One line per figure job that did not end ok (run now or reused) and per claim that
+    raised, from the files the workers wrote: ``<what>: <status>``."""
+    out = []
+    for job in plan:
+        try:
+            status = json.loads((job.dir / "reproduce.json").read_text()).get("status")
+        except (OSError, ValueError, AttributeError):
+            status = "no reproduce.json (the job crashed)"
+        if status != "ok":
+            out.append(f"{' '.join(job.overrides)}: {' '.join(str(status).split())[:300]}")
+    for paper, path in claim_files.items():
+        try:
+            results = json.loads(path.read_text()) if path.exists() else {}
+        except (OSError, ValueError):
+            results = {}
+        out += [f"claim {paper}/{cid}: {entry['measured'][:300]}"
+                for cid, entry in results.items()
+                if isinstance(entry, dict) and "error" in entry]
+    return out
+
+
 def reproduce(papers: list[str], jobs: int, root: Path) -> Path:
-    """Run everything of ``papers`` with ``jobs`` processes; return the report directory."""
+    """Run everything of ``papers`` with ``jobs`` processes; return the report directory
+    (the jobs and claims that failed: :func:`failures`)."""
     from hgo.core.registry import all_claims
 
     t0 = time.perf_counter()
@@ -198,7 +221,11 @@ def reproduce(papers: list[str], jobs: int, root: Path) -> Path:
 
     out = root / datetime.now().strftime("%Y-%m-%d_%H-%M-%S")
     write_report(out, papers, plan, claim_files, time.perf_counter() - t0)
+    LAST_FAILURES[:] = failures(plan, claim_files)
     return out
+
+
+LAST_FAILURES: list[str] = []  # of the last reproduce() of this process
 
 
 def _combine(plan: list[Job]) -> None:
@@ -247,6 +274,13 @@ def main(argv: list[str] | None = None) -> int:
     if args.jobs < 1:
         print(f"error: --jobs: must be >= 1, got {args.jobs}", file=sys.stderr)
         return 2
-    out = reproduce(args.papers or known, args.jobs, Path(args.out))
+    papers = args.papers or known
+    out = reproduce(papers, args.jobs, Path(args.out))
     print(f"reproduce: wrote {out / 'report.md'} and {out / 'report.html'}")
-    return 0
+    failed = list(LAST_FAILURES)
+    for line in failed:
+        print(f"error: {line}", file=sys.stderr)
+    if failed:
+        print(f"reproduce: {len(failed)} job(s) or claim(s) failed (listed above; the "
+              "report has the details)", file=sys.stderr)
+    return 1 if failed else 0

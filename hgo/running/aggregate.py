@@ -326,28 +326,85 @@ class SweepSummary(Callback):
             job_return.hydra_cfg = None
 
     def on_multirun_end(self, config, **kwargs) -> None:
-        print(sweep_summary(Path(config.hydra.sweep.dir)), flush=True)
+        """Print the table; the sweep's process exits with the worst code of its jobs (1
+        for a job that did not finish): jobs run by submitit, joblib or ray report their
+        exit code in other processes, and a sweep of failed jobs exited 0."""
+        from hgo.running.job import exit_with
+
+        sweep = Path(config.hydra.sweep.dir)
+        print(sweep_summary(sweep), flush=True)
+        code = sweep_exit_code(sweep)
+        if code:
+            exit_with(code)
+
+
+FAILED = ".hgo_failed"  # in a sweep directory: <job name> -> "<exit code>\n<one line>"
+
+
+def record_failure(sweep: Path, job: str, code: int, line: str) -> None:
+    """Note that ``job`` of ``sweep`` failed (its directory may be gone: a configuration
+    error leaves none), for :func:`sweep_summary` in the sweep's own process."""
+    folder = Path(sweep) / FAILED
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / job).write_text(f"{code}\n{line}\n")
+
+
+def _failures(sweep: Path) -> dict[str, tuple[int, str]]:
+    out = {}
+    folder = Path(sweep) / FAILED
+    for note in sorted(folder.iterdir()) if folder.is_dir() else []:
+        code, _, line = note.read_text().partition("\n")
+        out[note.name] = (int(code) if code.strip().lstrip("-").isdigit() else 1,
+                          line.strip())
+    return out
+
+
+def _job_status(job: Path) -> tuple[str, dict]:
+    import json
+
+    try:
+        data = json.loads((job / "run.json").read_text())
+        return str(data.get("status", "no status in run.json")), data
+    except (OSError, ValueError, AttributeError):
+        return "no run.json (the job did not finish)", {}
+
+
+def _is_ok(status: str) -> bool:
+    return status == "ok" or status.startswith("ok (")
+
+
+def sweep_exit_code(sweep: Path) -> int:
+    """The worst exit code of the sweep's jobs: a recorded failure's, 1 for a job without a
+    successful run.json, 0 when every job is ok."""
+    failures = _failures(sweep)
+    codes = [code for code, _ in failures.values()]
+    codes += [1 for job in _job_dirs(sweep)
+              if job.name not in failures and not _is_ok(_job_status(job)[0])]
+    return max(codes, default=0)
 
 
 def sweep_summary(sweep: Path) -> str:
-    """``<n> jobs in <sweep>: <k> ok`` then a row per job (the table fits 100 columns)."""
-    import json
-
+    """``<n> jobs in <sweep>: <k> ok, <f> failed`` then a row per job (the table fits 100
+    columns), and each failed job's one-line error."""
+    failures = _failures(sweep)
     jobs = _job_dirs(sweep)
     overrides = {j.name: _overrides(j) for j in jobs}
     labels = _varying(overrides) if overrides else {}
     lines, n_ok = [], 0
     for job in jobs:
-        info = job / "run.json"
-        data = json.loads(info.read_text()) if info.exists() else {}
-        status = data.get("status", "no run.json (the job did not finish)")
-        n_ok += status == "ok"
-        metric = next(iter(data.get("metrics", {}).items()), None)
+        status, data = _job_status(job)
+        n_ok += _is_ok(status)
+        metric = next(iter((data.get("metrics") or {}).items()), None)
         shown = (f"{metric[0].rsplit('/', 1)[-1][:26]} = {metric[1]:.4g}"
-                 if metric and metric[1] is not None else "")
+                 if metric and isinstance(metric[1], int | float) else "")
         lines.append(f"  {job.name:6s} {labels.get(job.name, '')[:34]:34s} "
                      f"{status[:14]:14s} {shown}")
-    return "\n".join([f"sweep: {len(jobs)} jobs in {sweep}: {n_ok} ok", *lines])
+    names = {j.name for j in jobs} | set(failures)
+    n_failed = len(names) - n_ok
+    errors = [f"  {name}: error: {line}" for name, (_, line) in failures.items()]
+    head = f"sweep: {len(names)} jobs in {sweep}: {n_ok} ok" + (
+        f", {n_failed} failed" if n_failed else "")
+    return "\n".join([head, *lines, *errors])
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -88,6 +88,7 @@ def _serve(cfg: DictConfig, request_fd: int, reply_fd: int) -> None:
     """The child: import, wait for the result, draw, reply ``("ok", paths)`` or
     ``("error", exception)``. EOF instead of a request (the run stopped): draw nothing."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # (the parent's SIGTERM handler raises)
     import hgo.outputs.figures  # noqa: F401  (matplotlib with hgo's style, while the parent runs)
     from hgo.running.figures import draw_figures
 

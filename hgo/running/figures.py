@@ -4,11 +4,16 @@ process, or in the figure process of :mod:`hgo.running.figure_worker`)."""
 
 from __future__ import annotations
 
+import ast
+import importlib.util
+from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from hydra.utils import instantiate
 from omegaconf import DictConfig
+
+from hgo.core.errors import ConfigError
 
 if TYPE_CHECKING:
     from hgo.running.results import RunResult
@@ -33,6 +38,44 @@ def figure_nodes(cfg: DictConfig) -> dict:
     an inherited figure with ``figures.<name>: null``."""
     return {name: node for name, node in (cfg.get("figures") or {}).items()
             if node is not None and name not in FIGURE_SETTINGS}
+
+
+def _static_parameters(target: str) -> tuple[list[str], bool] | None:
+    """Parameter names of the module-level function ``target`` names and whether it takes
+    ``**kwargs``, read from its source without importing the module (a paper's figures
+    import matplotlib, which a run's process does not load); None when not found so."""
+    module, _, name = str(target).rpartition(".")
+    try:
+        spec = importlib.util.find_spec(module)
+        source = Path(spec.origin).read_text() if spec and spec.origin else None
+    except (ImportError, ValueError, OSError):
+        return None
+    if not source or not str(spec.origin).endswith(".py"):
+        return None
+    for node in ast.parse(source).body:
+        if isinstance(node, ast.FunctionDef) and node.name == name:
+            a = node.args
+            return ([x.arg for x in (*a.posonlyargs, *a.args, *a.kwonlyargs)],
+                    a.kwarg is not None)
+    return None
+
+
+def check_figures(cfg: DictConfig) -> None:
+    """Every figure is a ``_target_`` node whose keys its function takes (after the result
+    and the path), checked before the run: a bad keyword failed only after the whole run,
+    ``+figures.foo=1`` was accepted."""
+    for name, node in figure_nodes(cfg).items():
+        if not isinstance(node, Mapping) or "_target_" not in node:
+            raise ConfigError(f"figures.{name}", "must be a figure node with a _target_ "
+                              f"(or null to drop it), got {str(node)[:60]!r}")
+        found = _static_parameters(node["_target_"])
+        if found is None:
+            continue
+        params, any_keyword = found
+        for key in node:
+            if not str(key).startswith("_") and key not in params[2:] and not any_keyword:
+                raise ConfigError(f"figures.{name}.{key}", "is not a parameter of "
+                                  f"{node['_target_']}", ", ".join(params[2:]) or "none")
 
 
 def draw_figures(cfg: DictConfig, result: RunResult) -> list[Path]:
