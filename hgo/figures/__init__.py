@@ -165,10 +165,13 @@ def drawn(t, y, columns: int, window: tuple[float, float] | None = None):
     t, y = _window(t, y, window)
     if len(t) <= 4 * columns:
         return t, y
-    _, t0, t1, lo, hi = _columns(t, y, columns)
+    edges, t0, t1, lo, hi = _columns(t, y, columns)
+    # a falling column is drawn from its maximum to its minimum: a smooth curve stays
+    # smooth (min first everywhere would zigzag back on every falling slope)
+    falling = y[edges[:-1]] > y[edges[1:] - 1]
     t_out, y_out = np.empty(2 * len(t0)), np.empty(2 * len(t0))
     t_out[0::2], t_out[1::2] = t0, t1
-    y_out[0::2], y_out[1::2] = lo, hi
+    y_out[0::2], y_out[1::2] = np.where(falling, hi, lo), np.where(falling, lo, hi)
     return t_out, y_out
 
 
@@ -187,7 +190,9 @@ def plot_line(ax, t, y, *args, window: tuple[float, float] | None = None,
     columns = pixel_columns(ax)
     td, yd = drawn(t, y, columns, window)
     if band is None:
-        band = len(td) == 2 * columns and noisy(yd[0::2], yd[1::2])
+        first, second = yd[0::2], yd[1::2]
+        band = len(td) == 2 * columns and noisy(np.minimum(first, second),
+                                                np.maximum(first, second))
     if band and not args:
         return plot_band(ax, t, y, window=window, **kwargs)
     return ax.plot(td, yd, *args, **kwargs)

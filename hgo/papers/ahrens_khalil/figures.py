@@ -29,14 +29,15 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from hgo.figures import panel_letters, save_figure
+from hgo.figures import PALETTE, panel_letters, plot_line, save_figure
 from hgo.papers.ahrens_khalil.postprocess import TRACKING
 from hgo.reproduce import PaperFigure
 
 LOOP_LABELS = {"switched": "the switched-gain observer",
                "fixed_eps2": r"the fixed $\varepsilon_2 = 0.01$ observer",
                "fixed_eps1": r"the fixed $\varepsilon_1 = 5\cdot10^{-4}$ observer"}
-OBS_COLOURS = {"switched": "tab:blue", "fixed_eps2": "tab:green", "fixed_eps1": "tab:red"}
+OBS_COLOURS = {"switched": PALETTE["blue"], "fixed_eps2": PALETTE["green"],
+               "fixed_eps1": PALETTE["vermillion"]}
 
 
 def _tracking(result) -> np.ndarray:
@@ -70,12 +71,12 @@ def fig1(result, path) -> None:
     eps = result.trajectory.d[:, da + obs.disc_names.index("eps")]
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 6), sharex=True,
                                    gridspec_kw={"height_ratios": [2, 1]})
-    ax1.plot(t, tr[:, 0], "k:", lw=2, label=r"reference $\dot{r}$")
-    ax1.plot(t, tr[:, 1], "tab:blue", lw=1, label="$x_2$")
+    plot_line(ax1, t, tr[:, 0], "k:", lw=2, label=r"reference $\dot{r}$")
+    plot_line(ax1, t, tr[:, 1], color=PALETTE["blue"], lw=1, label="$x_2$")
     ax1.set_ylabel("velocity (rad/s)")
     ax1.legend(loc="lower right")
     ax1.set_title(f"Ahrens & Khalil Fig. 1 - {_label(obs)}")
-    ax2.step(t, eps, "tab:blue", where="post")
+    ax2.step(t, eps, color=PALETTE["blue"], where="post")
     ax2.set_yscale("log")
     ax2.set_ylabel(r"$\varepsilon$ (s)")
     ax2.set_xlabel("$t$ (s)")
@@ -84,8 +85,8 @@ def fig1(result, path) -> None:
 
 
 def _e2_axes(ax, t, e2, label, colour, window=None) -> None:
-    sel = slice(None) if window is None else t >= window
-    ax.plot(t[sel], e2[sel], color=colour, lw=0.8)
+    plot_line(ax, t, e2, color=colour, lw=0.8,
+              window=None if window is None else (window, t[-1]))
     ax.set_ylabel("$e_2$ (rad/s)")
     ax.set_title(label)
 
@@ -239,7 +240,7 @@ def tradeoff_figure(path, eps: np.ndarray, mu: np.ndarray, bound: np.ndarray, r:
                    label=r"$\varepsilon^*$ (fit of (25) per $\mu$)")
     if eps_star_grid:
         mg = np.array(sorted(eps_star_grid))
-        ax2.loglog(mg, [eps_star_grid[m] for m in mg], "s", mfc="none", color="tab:blue",
+        ax2.loglog(mg, [eps_star_grid[m] for m in mg], "s", mfc="none", color=PALETTE["blue"],
                    label=r"$\varepsilon^*$ (measured minimum on the $\varepsilon$ grid)")
     if power is not None and ms.size:
         q, se, pref = power

@@ -20,8 +20,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from hgo.engine.simulate import no_noise, simulate
-from hgo.figures import (PALETTE, legend_below, panel_letters, plot_line, save_figure,
-                         split_time)
+from hgo.figures import PALETTE, legend_below, panel_letters, plot_line, save_figure, split_time
 from hgo.observers import adaptive_cascade as ac
 from hgo.reproduce import PaperFigure
 

@@ -15,8 +15,15 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from hgo.figures import (PALETTE, hat, legend_below, panel_letters, plot_line, save_figure,
-                         split_time)
+from hgo.figures import (
+    PALETTE,
+    hat,
+    legend_below,
+    panel_letters,
+    plot_line,
+    save_figure,
+    split_time,
+)
 from hgo.recording import Series
 from hgo.reproduce import PaperFigure
 
@@ -29,7 +36,8 @@ DRAW_ORDER = ("dead_zone", "sign_indefinite")
 RUN_STYLES = [{"color": PALETTE["blue"], "ls": "-"}, {"color": PALETTE["vermillion"], "ls": "--"},
               {"color": PALETTE["green"], "ls": "-."}, {"color": PALETTE["orange"], "ls": ":"},
               {"color": PALETTE["purple"], "ls": "-"}]
-COPY_COLOURS = [PALETTE[c] for c in ("orange", "sky", "purple", "blue", "yellow", "grey")]  # not the single observer's green
+# the copies of Fig. 5: not the single observer's green nor the notch output's vermillion
+COPY_COLOURS = [PALETTE[c] for c in ("orange", "sky", "purple", "blue", "yellow", "grey")]
 PLANT = {"color": "k", "lw": 1.0, "ls": ":"}
 TRANSIENT = 5.0  # s: the left part of the split time axis (the transients last ~2-4 s)
 LAST = 8.0  # s: the last periods shown of an oscillation (Fig. 3: ~4 periods)
