@@ -18,7 +18,16 @@ def test_figures_format_svg_writes_svg(tmp_path):
     assert not (tmp_path / "fig1.png").exists()
 
 
+def test_figures_vector_writes_a_vector_copy_beside_each_png(tmp_path):
+    cfg = compose(["experiment=sp_fig1", "solver.t_end=5", "metrics.window=1",
+                   "figures.vector=pdf"], tmp_path)
+    run(cfg, tmp_path)
+    assert (tmp_path / "fig1.png").read_bytes().startswith(b"\x89PNG")
+    assert (tmp_path / "fig1.pdf").read_bytes().startswith(b"%PDF")
+
+
 @pytest.mark.parametrize("override, message", [
+    ("figures.vector=eps", "figures.vector: 'eps' not in ['pdf', 'svg'] or null"),
     ("figures.format=jpg", "figures.format: 'jpg' not in ['png', 'pdf', 'svg']"),
     ("figures.dpi=0", "figures.dpi must be a number in [10, 1200], got 0"),
 ])

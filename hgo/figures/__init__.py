@@ -22,7 +22,8 @@ horizon share a figure through a split time axis (:func:`split_time`).
 from __future__ import annotations
 
 import re
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 
 import matplotlib
@@ -102,18 +103,39 @@ def legend_outside(ax, below: bool = False) -> None:
         ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
 
 
+_ALSO: list[str] = []  # vector formats save_figure writes beside each figure
+
+
+@contextmanager
+def also_saved_as(vector: str | None) -> Iterator[None]:
+    """Inside: :func:`save_figure` also writes ``<path stem>.<vector>`` (``pdf``,
+    ``svg``; None: nothing more), the same figure as a vector file for a paper."""
+    if vector:
+        _ALSO.append(vector)
+    try:
+        yield
+    finally:
+        if vector:
+            _ALSO.pop()
+
+
 def save_figure(fig, path: str | Path) -> None:
     """Lay out ``fig``, write it to ``path`` (format from its suffix, dpi from
-    ``savefig.dpi``) and close it. The file is written as ``<path>.partial`` and renamed
-    when complete (:func:`hgo.recording.atomic_output`)."""
+    ``savefig.dpi``), and as ``<stem>.pdf``/``.svg`` inside :func:`also_saved_as`, then
+    close it. Each file is written as ``<path>.partial`` and renamed when complete
+    (:func:`hgo.recording.atomic_output`)."""
     from hgo.recording import atomic_output
 
     fig.tight_layout()
     # a figure legend below the axes (legend_below) lies outside the canvas: grow it
     extra = {"bbox_inches": "tight", "pad_inches": 0.1} if fig.legends else {}
+    path = Path(path)
+    targets = [path] + [path.with_suffix(f".{v}") for v in dict.fromkeys(_ALSO)
+                        if path.suffix != f".{v}"]
     try:
-        with atomic_output(path) as partial:
-            fig.savefig(partial, format=Path(path).suffix.lstrip(".") or "png", **extra)
+        for target in targets:
+            with atomic_output(target) as partial:
+                fig.savefig(partial, format=target.suffix.lstrip(".") or "png", **extra)
     finally:
         plt.close(fig)
 
