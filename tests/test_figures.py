@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import pytest
 
-from hgo.aggregate import figure_label
-from hgo.config import compose
-from hgo.figures import hat, math_label
-from hgo.runner import run
+from hgo.core.config import compose
+from hgo.outputs.figures import hat, math_label
+from hgo.running.aggregate import figure_label
+from hgo.running.runner import run
 
 
 def test_figures_format_svg_writes_svg(tmp_path):
@@ -59,7 +59,7 @@ def test_drawn_is_pixel_width_and_keeps_every_extreme():
     the global extremes (a one-sample spike included) are among them."""
     import numpy as np
 
-    from hgo.figures import drawn
+    from hgo.outputs.figures import drawn
 
     for n in (10_000, 1_000_000):
         t = np.linspace(0.0, 10.0, n)
@@ -77,7 +77,7 @@ def test_drawn_keeps_a_falling_curve_falling():
     """A smooth falling curve reduced to pixel columns is still monotone (no zigzag)."""
     import numpy as np
 
-    from hgo.figures import drawn
+    from hgo.outputs.figures import drawn
 
     t = np.linspace(0.0, 1.0, 100_000)
     _, yd = drawn(t, np.cos(3 * t), 300)
@@ -88,7 +88,7 @@ def test_plot_line_draws_dense_noise_as_a_band_and_a_smooth_curve_as_a_line():
     import matplotlib.pyplot as plt
     import numpy as np
 
-    from hgo.figures import noisy, pixel_columns, plot_line
+    from hgo.outputs.figures import noisy, pixel_columns, plot_line
 
     rng = np.random.default_rng(0)
     t = np.linspace(0.0, 50.0, 200_000)

@@ -27,7 +27,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from types import ModuleType
 
-from hgo.components import no_update
+from hgo.core.components import no_update
 from hgo.engine import tableau
 from hgo.engine.jit import borrow_function, view_function
 from hgo.engine.system import System

@@ -16,9 +16,16 @@ from __future__ import annotations
 import matplotlib.pyplot as plt
 import numpy as np
 
-from hgo.figures import PALETTE, legend_below, panel_letters, plot_band, plot_line, save_figure
-from hgo.postprocess.apa import RATE
-from hgo.reproduce import PaperFigure
+from hgo.core.registry import PaperFigure
+from hgo.outputs.figures import (
+    PALETTE,
+    legend_below,
+    panel_letters,
+    plot_band,
+    plot_line,
+    save_figure,
+)
+from hgo.papers.andrieu_praly_astolfi.postprocess import RATE
 
 ORDER = ("df2max", "omega1", "omega2")
 COLOURS = {"df2max": PALETTE["vermillion"], "omega1": PALETTE["blue"],

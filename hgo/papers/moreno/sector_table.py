@@ -17,7 +17,7 @@ import pandas as pd
 
 from hgo.engine.simulate import Trajectory
 from hgo.engine.system import System
-from hgo.figures import save_figure
+from hgo.outputs.figures import save_figure
 from hgo.papers.moreno.theory import (
     ErrorSystem,
     eps_max_fd,
@@ -126,7 +126,7 @@ def sector_figure(result, path) -> None:
     form per gain set, and eps_max(rho) by LMI and by the SPR test."""
     import matplotlib.pyplot as plt
 
-    from hgo.figures import PALETTE
+    from hgo.outputs.figures import PALETTE
 
     table = wide_table(result.metrics)
     table.to_csv(path.with_suffix(".csv"))

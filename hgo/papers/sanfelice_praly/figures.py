@@ -1,31 +1,30 @@
 """Figures of Sanfelice & Praly (2010), Section 3: Figs. 1-5 from one run each.
 
-Each function takes a :class:`hgo.runner.RunResult` and a path and writes one PNG with
+Each function takes a :class:`hgo.running.runner.RunResult` and a path and writes one PNG with
 the quantities of the paper's figure on the same axes (time in s on the abscissa);
 legends name the law (observer name and its p2), the copy, or the filter. The sweep of
-Fig. 3 (three values of p2, three runs) is drawn by ``experiments/aggregate.py`` with
-:func:`fig3_compare` from the recordings.
+Fig. 3 (three values of p2, three runs) is the sweep's ``compare.png``, drawn by
+:func:`hgo.running.aggregate.compare_figure` from the recordings.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from pathlib import Path
 
 import matplotlib.pyplot as plt
-import numpy as np
 
-from hgo.figures import (
+from hgo.core.registry import PaperFigure
+from hgo.outputs.figures import (
     PALETTE,
     hat,
     legend_below,
     panel_letters,
     plot_line,
     save_figure,
+    split_rows,
     split_time,
 )
-from hgo.recording import Series
-from hgo.reproduce import PaperFigure
+from hgo.outputs.recording import Series
 
 # the paper's colours (Fig. 1 blue/red, Fig. 3 blue/red/green, Figs. 4-5 green/black) in the
 # colour-blind-safe palette; the dead-zone law is drawn first, wide and light, and law (6)
@@ -33,14 +32,10 @@ from hgo.reproduce import PaperFigure
 LAW_STYLES = {"dead_zone": {"color": PALETTE["vermillion"], "lw": 2.6, "alpha": 0.55},
               "sign_indefinite": {"color": PALETTE["blue"], "lw": 1.3, "ls": "--"}}
 DRAW_ORDER = ("dead_zone", "sign_indefinite")
-RUN_STYLES = [{"color": PALETTE["blue"], "ls": "-"}, {"color": PALETTE["vermillion"], "ls": "--"},
-              {"color": PALETTE["green"], "ls": "-."}, {"color": PALETTE["orange"], "ls": ":"},
-              {"color": PALETTE["purple"], "ls": "-"}]
 # the copies of Fig. 5: not the single observer's green nor the notch output's vermillion
 COPY_COLOURS = [PALETTE[c] for c in ("orange", "sky", "purple", "blue", "yellow", "grey")]
 PLANT = {"color": "k", "lw": 1.0, "ls": ":"}
 TRANSIENT = 5.0  # s: the left part of the split time axis (the transients last ~2-4 s)
-LAST = 8.0  # s: the last periods shown of an oscillation (Fig. 3: ~4 periods)
 
 
 def _series(result) -> dict[str, Series]:
@@ -65,13 +60,6 @@ def _drawing_order(observers) -> list:
     return sorted(observers, key=lambda o: rank.get(o.name, len(rank)))
 
 
-def _split_rows(n_rows: int, height: float = 2.3):
-    """Rows of (transient, rest) axes pairs, the transient a quarter of the width."""
-    fig, axes = plt.subplots(n_rows, 2, figsize=(11, height * n_rows + 0.6), squeeze=False,
-                             gridspec_kw={"width_ratios": [1, 3], "wspace": 0.04})
-    return fig, axes
-
-
 def _estimates_and_gain(result, path, title: str) -> None:
     """x^1, x^2 (with the plant's x) and r of every observer, one row each, on a split
     time axis: the transient [0, 5 s] and the rest of the run, each with its own y-range
@@ -82,7 +70,7 @@ def _estimates_and_gain(result, path, title: str) -> None:
     x = s["/plant/x"]
     n = x.values.shape[1]
     split = min(TRANSIENT, t[-1] / 4)
-    fig, axes = _split_rows(n + 1)
+    fig, axes = split_rows(n + 1)
     observers = _drawing_order(system.observers)
     for row in range(n + 1):
         for col, window in enumerate(((0.0, split), (split, t[-1]))):
@@ -123,39 +111,10 @@ def fig2(result, path) -> None:
 def fig3(result, path) -> None:
     """Fig. 3 for one run (one p2): x^1, x^2, r of law (6) on the zero plant solution.
 
-    The three values of p2 together: :func:`fig3_compare` (``experiments/aggregate.py``).
+    The three values of p2 together: the sweep's ``compare.png``
+    (:func:`hgo.running.aggregate.compare_figure`, titled :data:`FIG3_TITLE`).
     """
     _estimates_and_gain(result, path, "Sanfelice & Praly Fig. 3: oscillation of law (6)")
-
-
-def fig3_compare(runs: Sequence[tuple[str, dict[str, np.ndarray]]], path,
-                 observer: str = "sign_indefinite") -> None:
-    """Fig. 3: x^1, x^2, r of several runs (label, recording as from ``read_arrays``) on a
-    split time axis: the transient and the last periods (8 s), one line style a run."""
-    fig, axes = _split_rows(3)
-    t_end = max(float(rec["sim_time"][-1]) for _, rec in runs)
-    split = min(TRANSIENT, t_end / 4)
-    late = max(split, t_end - LAST)
-    for k, (label, rec) in enumerate(runs):
-        t = rec["sim_time"]
-        xh = rec[f"/observer/{observer}/xhat"]
-        r = rec[f"/observer/{observer}/r"]
-        style = RUN_STYLES[k % len(RUN_STYLES)]
-        for row, y in enumerate((xh[:, 0], xh[:, 1], r[:, 0])):
-            for col, window in enumerate(((0.0, split), (late, t_end))):
-                plot_line(axes[row, col], t, y, window=window, lw=1.2, label=label, **style)
-    for row, name in enumerate([hat("x1"), hat("x2"), "gain $r$"]):
-        split_time(axes[row, 0], axes[row, 1], split, t_end, late_start=late)
-        axes[row, 0].set_ylabel(f"{name} (–)")
-    axes[0, 0].set_title(f"transient, $0 \\leq t \\leq {split:g}$ s")
-    axes[0, 1].set_title(f"last periods, ${late:g} \\leq t \\leq {t_end:g}$ s")
-    for ax in axes[-1]:
-        ax.set_xlabel("$t$ (s)")
-    panel_letters(axes[:, 0])
-    legend_below(fig, ncol=len(runs))
-    fig.suptitle(r"Sanfelice & Praly Fig. 3: law (6), $p_1 = 4/3$, $\nu_1 = 3$, "
-                 "zero plant solution")
-    save_figure(fig, path)
 
 
 def fig4(result, path) -> None:
@@ -240,11 +199,15 @@ def fig5(result, path, zoom: float = 10.0) -> None:
 # --- what ``hgo reproduce`` runs ------------------------------------------------------------
 
 
+FIG3_TITLE = (r"Sanfelice & Praly Fig. 3: law (6), $p_1 = 4/3$, $\nu_1 = 3$, "
+              "zero plant solution")
+
+
 def _aggregate(sweep: Path) -> None:
     """The sweep's tables and its comparison figure, which is the paper's Fig. 3."""
-    from hgo.aggregate import aggregate
+    from hgo.running.aggregate import aggregate
 
-    png = aggregate(sweep).get("png")
+    png = aggregate(sweep, title=FIG3_TITLE).get("png")
     if png is not None:
         png.replace(sweep / "fig3.png")
 

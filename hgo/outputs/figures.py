@@ -1,6 +1,6 @@
 """Figures of a run, one function per paper figure with signature ``f(result, path)``.
 
-``result`` is :class:`hgo.runner.RunResult` (``.experiment.system``, ``.trajectory``,
+``result`` is :class:`hgo.running.runner.RunResult` (``.experiment.system``, ``.trajectory``,
 ``.series`` including post-processed series, ``.metrics``); the runner calls each entry of
 the ``figures`` config mapping and writes ``<name>.<figures.format>`` in the run directory
 (``png`` by default; ``pdf``, ``svg``) at ``figures.dpi``. Matplotlib runs on its
@@ -39,6 +39,10 @@ PALETTE = {"black": "#000000", "orange": "#E69F00", "sky": "#56B4E9", "green": "
            "yellow": "#F0E442", "blue": "#0072B2", "vermillion": "#D55E00",
            "purple": "#CC79A7", "grey": "#7F7F7F"}
 CYCLE = [PALETTE[c] for c in ("blue", "vermillion", "green", "orange", "purple", "sky")]
+# runs of a sweep on one axes: a colour and a line style each (distinct in grey too)
+RUN_STYLES = [{"color": PALETTE["blue"], "ls": "-"}, {"color": PALETTE["vermillion"], "ls": "--"},
+              {"color": PALETTE["green"], "ls": "-."}, {"color": PALETTE["orange"], "ls": ":"},
+              {"color": PALETTE["purple"], "ls": "-"}]
 
 STYLE = {
     "axes.prop_cycle": cycler(color=CYCLE),
@@ -123,8 +127,8 @@ def save_figure(fig, path: str | Path) -> None:
     """Lay out ``fig``, write it to ``path`` (format from its suffix, dpi from
     ``savefig.dpi``), and as ``<stem>.pdf``/``.svg`` inside :func:`also_saved_as`, then
     close it. Each file is written as ``<path>.partial`` and renamed when complete
-    (:func:`hgo.recording.atomic_output`)."""
-    from hgo.recording import atomic_output
+    (:func:`hgo.outputs.recording.atomic_output`)."""
+    from hgo.outputs.recording import atomic_output
 
     fig.tight_layout()
     # a figure legend below the axes (legend_below) lies outside the canvas: grow it
@@ -174,7 +178,7 @@ def _window(t: np.ndarray, y: np.ndarray, window: tuple[float, float] | None):
 
 def _columns(t: np.ndarray, y: np.ndarray, columns: int):
     """(edges, t_first, t_last, min, max) of ``y`` per column of consecutive samples."""
-    from hgo.decimate import bucket_edges, bucket_min_max
+    from hgo.outputs.decimate import bucket_edges, bucket_min_max
 
     edges = bucket_edges(len(t), 2 * columns)
     mm = bucket_min_max(y.reshape(len(y), -1), edges)[:, 0]
@@ -237,6 +241,13 @@ def plot_band(ax, t, y, *, color: str, label: str | None = None,
     ax.fill_between(mid, lo, hi, color=color, alpha=alpha, lw=0, label="_nolegend_")
     ax.figure.hgo_band = True  # legend_below explains the shading
     return ax.plot(mid, mean, color=color, lw=min(lw, 1.5), label=label, **line)
+
+
+def split_rows(n_rows: int, height: float = 2.3):
+    """A figure of ``n_rows`` rows of (transient, rest) axes pairs for :func:`split_time`,
+    the transient a quarter of the width."""
+    return plt.subplots(n_rows, 2, figsize=(11, height * n_rows + 0.6), squeeze=False,
+                        gridspec_kw={"width_ratios": [1, 3], "wspace": 0.04})
 
 
 def split_time(ax_early, ax_late, split: float, t_end: float, t_start: float = 0.0,

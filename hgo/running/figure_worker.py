@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 from omegaconf import DictConfig
 
-from hgo.errors import one_line
+from hgo.core.errors import one_line
 
 FULL_RATE = 20_000  # samples kept at full rate at each end of a run (drawing_view)
 BUCKETS = 10_000  # min/max buckets of the samples between them
@@ -50,7 +50,7 @@ BUCKETS = 10_000  # min/max buckets of the samples between them
 def _min_max_rows(values: np.ndarray, edges: np.ndarray) -> np.ndarray:
     """Two rows a bucket of ``values`` (2-d): min then max, or max then min where the
     bucket falls (its first value above its last), so a smooth curve stays smooth."""
-    from hgo.decimate import bucket_min_max
+    from hgo.outputs.decimate import bucket_min_max
 
     mm = bucket_min_max(values, edges)
     lo, hi = mm[0::2], mm[1::2]
@@ -70,13 +70,13 @@ def _reduced(values: np.ndarray, edges: np.ndarray) -> np.ndarray:
 
 
 def drawing_view(result: Any) -> Any:
-    """``result`` (:class:`hgo.runner.RunResult`) as the figures draw it: unchanged up to
+    """``result`` (:class:`hgo.running.runner.RunResult`) as the figures draw it: unchanged up to
     ``2 * (FULL_RATE + BUCKETS)`` samples; else each per-sample array keeps its first and
     last ``FULL_RATE`` rows and reduces the rows between to the min/max of ``BUCKETS``
     buckets (time stamped with each bucket's first and last sample)."""
     import dataclasses
 
-    from hgo.decimate import bucket_edges
+    from hgo.outputs.decimate import bucket_edges
 
     traj = result.trajectory
     n = len(traj.t)
@@ -149,8 +149,8 @@ def _serve(cfg: DictConfig, request_fd: int, reply_fd: int) -> None:
     """The child: import, wait for the result, draw, reply ``("ok", paths)`` or
     ``("error", exception)``. EOF instead of a request (the run stopped): draw nothing."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    import hgo.figures  # noqa: F401  (matplotlib with hgo's style, while the parent runs)
-    from hgo.runner import draw_figures
+    import hgo.outputs.figures  # noqa: F401  (matplotlib with hgo's style, while the parent runs)
+    from hgo.running.figures import draw_figures
 
     gc.freeze()  # the collector skips the modules' objects while drawing (0.1 s a figure)
     _warm_up()
@@ -166,7 +166,7 @@ def _serve(cfg: DictConfig, request_fd: int, reply_fd: int) -> None:
 
 class FigureWorker:
     """A forked process that draws the figures of ``cfg`` for one
-    :class:`hgo.runner.RunResult` (:meth:`submit`, then :meth:`collect`)."""
+    :class:`hgo.running.runner.RunResult` (:meth:`submit`, then :meth:`collect`)."""
 
     def __init__(self, cfg: DictConfig) -> None:
         request_r, self._request_w = os.pipe()
@@ -242,7 +242,7 @@ class FigureWorker:
 def figures_aside(cfg: DictConfig) -> Iterator[FigureWorker | None]:
     """A :class:`FigureWorker` for ``cfg``'s figures, ended on leaving; None where there
     are no figures or no ``fork``."""
-    from hgo.runner import figure_nodes
+    from hgo.running.figures import figure_nodes
 
     if not (FigureWorker.available() and figure_nodes(cfg)):
         yield None
