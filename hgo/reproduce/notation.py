@@ -11,6 +11,10 @@ from __future__ import annotations
 import re
 
 SUB = str.maketrans("0123456789", "₀₁₂₃₄₅₆₇₈₉")
+SUP = str.maketrans("0123456789-", "⁰¹²³⁴⁵⁶⁷⁸⁹⁻")
+# x^1, theta^2, eta^2: estimates in the code's ASCII (a hat), as in the papers; any other
+# base with ^digit is a power (sigma^2, s^2, z^2)
+ESTIMATED = ("x", "theta", "eta")
 HAT, TILDE, BAR = "\u0302", "\u0303", "\u0304"
 GREEK = {"theta": "θ", "Theta": "Θ", "Omega": "Ω", "omega": "Ω", "eta": "η", "eps": "ε",
          "epsilon": "ε", "mu": "μ", "sigma": "σ", "delta": "δ", "Delta": "Δ", "rho": "ρ",
@@ -34,12 +38,13 @@ _RULES: list[tuple[re.Pattern, object]] = [
     (re.compile(r"\bR\^2\b"), "R²"),  # R^2 (23) of Dimassi et al., not an estimate
     (re.compile(rf"{_LETTERS}([A-Za-z])\^(\d)f{_END}"),  # x^2f: a filtered estimate
      lambda m: f"{m[1]}{HAT}{_sub(m[2])}f"),
-    (re.compile(rf"{_LETTERS}([a-z])\^(?![\w(])"), lambda m: f"{m[1]}{HAT}"),  # y^
+    (re.compile(rf"{_LETTERS}([a-z])\^(?![\w({{])"), lambda m: f"{m[1]}{HAT}"),  # y^
     (re.compile(r"\+-"), "±"),
     (re.compile(r"<\s*([A-Za-z]+)\^(\d*)\s*>"),  # <x^2>: the average of the estimates
      lambda m: f"⟨{_base(m[1])}{HAT}{_sub(m[2])}⟩"),
-    (re.compile(rf"{_LETTERS}({_NAMES}|[A-Za-z])\^_?(\d+){_END}"),  # theta^1, x^2: estimates
+    (re.compile(rf"{_LETTERS}({'|'.join(ESTIMATED)})\^_?(\d+){_END}"),  # estimates
      lambda m: f"{_base(m[1])}{HAT}{_sub(m[2])}"),
+    (re.compile(r"([A-Za-z)])\^(-?\d+)(?![\d.])"), lambda m: f"{m[1]}{m[2].translate(SUP)}"),
     (re.compile(rf"{_LETTERS}({_NAMES}|[A-Za-z])~_?(\d*){_END}"),  # theta~1, K~1: errors
      lambda m: f"{_base(m[1])}{TILDE}{_sub(m[2])}"),
     (re.compile(rf"{_LETTERS}z_h(\d+){_END}"), lambda m: f"z{HAT}{_sub(m[1])}"),  # z_h12
@@ -58,7 +63,7 @@ _RULES: list[tuple[re.Pattern, object]] = [
     (re.compile(r"<="), "≤"),
     (re.compile(r">="), "≥"),
     (re.compile(r"!="), "≠"),
-    (re.compile(rf"{_LETTERS}inf{_END}"), "∞"),
+    (re.compile(r"(?<=[,\s-])inf(?=\s*[\])])"), "∞"),  # [1, inf]; not "inf over ..."
     (re.compile(r"M_inf|M∞"), "M∞"),
 ]
 

@@ -46,8 +46,10 @@ from hgo.outputs.metrics import VACUOUS_FACTOR
 from hgo.reproduce.notation import math_names, plain
 
 TEMPLATES = Path(__file__).with_name("templates")
-DECIDING = 5  # measured numbers shown beside a claim (the rest: in its detail)
-ONE_LINE = 240  # characters of a statement shown in the claims table
+DECIDING = 5  # measured numbers shown beside a claim (the rest: in its detail) ...
+DECIDING_CHARS = 320  # ... as long as they fit in this many characters
+ONE_LINE = 200  # characters of a statement shown in the claims table
+FINDING = 150  # characters of the check's own summary shown under it
 VERDICT_LEGEND = {
     REPRODUCED: "the paper's statement holds in our runs, as stated",
     PARTLY: "holds in a narrower form (a weaker bound, some of the cases, another reading "
@@ -215,6 +217,26 @@ def _number(value) -> str:
     return str(value)
 
 
+def deciding(numbers: list[tuple[str, str]]) -> list[tuple[str, str]]:
+    """The first :data:`DECIDING` numbers (the checks list the deciding ones first), fewer
+    where they would take more than :data:`DECIDING_CHARS` characters (at least one)."""
+    shown, used = [], 0
+    for name, value in numbers[:DECIDING]:
+        used += len(name) + len(value) + 3
+        if shown and used > DECIDING_CHARS:
+            break
+        shown.append((name, value))
+    return shown
+
+
+def _summary(measured: str) -> str:
+    """The check's summary: its measured text without the bracketed list of numbers
+    (:meth:`hgo.core.registry.Measured.describe`); "" when it is only numbers."""
+    if measured.endswith("]") and " [" in measured:
+        return measured[:measured.index(" [")]
+    return "" if "=" in measured else measured
+
+
 def _claims(paper: str, claim_file: Path) -> list[dict]:
     results = json.loads(claim_file.read_text()) if claim_file.exists() else {}
     rows = []
@@ -223,7 +245,9 @@ def _claims(paper: str, claim_file: Path) -> list[dict]:
         numbers = [(math_names(k), _number(v)) for k, v in r.get("numbers", {}).items()]
         rows.append({"id": c.id, "where": c.where, "statement": math_names(plain(c.statement)),
                      "line": math_names(plain(first_sentence(c.statement))),
-                     "deciding": numbers[:DECIDING], "numbers": numbers,
+                     "finding": math_names(plain(first_sentence(_summary(r["measured"]),
+                                                                FINDING))),
+                     "deciding": deciding(numbers), "numbers": numbers,
                      "measured": math_names(r["measured"]), "verdict": c.verdict,
                      "readings": [math_names(x) for x in c.readings],
                      "self_check": self_check(c.verdict, r["holds"]),

@@ -208,8 +208,8 @@ def _aggregate(sweep: Path) -> None:
     from hgo.running.aggregate import aggregate
 
     png = aggregate(sweep, title=FIG3_TITLE).get("png")
-    if png is not None:
-        png.replace(sweep / "fig3.png")
+    for drawn in ([] if png is None else sweep.glob(f"{png.stem}.*")):  # and its PDF/SVG
+        drawn.replace(sweep / f"fig3{drawn.suffix}")
 
 
 _SOLUTION = ("Components of the solution to (18)-(19) corresponding to the zero solution of "
