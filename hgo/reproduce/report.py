@@ -174,7 +174,7 @@ def _figures(paper: str, plan) -> list[FigureEntry]:
 
 _ABBREVIATIONS = ("Fig", "Figs", "Eq", "Eqs", "Sec", "Secs", "Ref", "Thm", "e.g", "i.e",
                   "al", "cf", "resp", "approx", "vs")
-_SENTENCE_END = re.compile(r"(?<=[.;])\s+(?=[A-Z(])")
+_SENTENCE_END = re.compile(r"(?<=\.)\s+(?=[A-Z(])")
 
 
 def first_sentence(text: str, limit: int = ONE_LINE) -> str:
@@ -183,7 +183,7 @@ def first_sentence(text: str, limit: int = ONE_LINE) -> str:
     text = " ".join(text.split())
     line = text
     for m in _SENTENCE_END.finditer(text):
-        word = text[:m.start()].rstrip(".;").rsplit(" ", 1)[-1]
+        word = text[:m.start()].rstrip(".").rsplit(" ", 1)[-1]
         if word not in _ABBREVIATIONS and not re.fullmatch(r"[A-Z]", word):
             line = text[:m.start()]
             break

@@ -57,9 +57,9 @@ def _loop_observer(result):
 def _label(obs) -> str:
     p = obs.p
     if int(p[1]) == 2:
-        return (rf"{obs.name}: $\varepsilon_1 = {p[8]:g} \to \varepsilon_2 = {p[9]:g}$ "
+        return (rf"switched gain $\varepsilon_1 = {p[8]:g} \to \varepsilon_2 = {p[9]:g}$ "
                 f"after $T_d = {p[3]:g}$ s")
-    return rf"{obs.name}: fixed $\varepsilon = {p[8]:g}$"
+    return rf"fixed gain $\varepsilon = {p[8]:g}$"
 
 
 def fig1(result, path) -> None:
