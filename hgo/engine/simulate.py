@@ -33,11 +33,13 @@ import sys
 import threading
 import warnings
 from dataclasses import dataclass, replace
+from pathlib import Path
 
 import numpy as np
 
 from hgo.core.errors import ConfigError
 from hgo.engine.codegen import (
+    compiled_first,
     damaged_cache_file,
     forget_kernel,
     load_kernel,
@@ -233,7 +235,7 @@ def _call_repairing_cache(system: System, method: str, module, fname: str, args:
     warned = False
     for _ in range(MAX_CACHE_REPAIRS):
         try:
-            return _interruptible(getattr(module, fname), args, args[-1])
+            return _interruptible(_first_compiled(module, fname), args, args[-1])
         except CACHE_ERRORS as err:
             damaged = damaged_cache_file(err)
             if damaged is None:
@@ -246,7 +248,13 @@ def _call_repairing_cache(system: System, method: str, module, fname: str, args:
             remove_cache_entry(damaged)
             forget_kernel(module)
             module = _kernel(system, method)
-    return _interruptible(getattr(module, fname), args, args[-1])
+    return _interruptible(_first_compiled(module, fname), args, args[-1])
+
+
+def _first_compiled(module, fname: str):
+    """The kernel function, compiled under its cache entry's lock on its first call
+    (:func:`hgo.engine.codegen.compiled_first`): no two processes compile it at once."""
+    return compiled_first(getattr(module, fname), Path(module.__file__))
 
 
 def _reason(message: str) -> str:
