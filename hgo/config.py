@@ -133,8 +133,12 @@ def register_configs() -> None:
 
 
 def conf_dir() -> Path:
-    """The ``conf/`` directory of the repository hgo runs from."""
-    return Path(__file__).resolve().parents[1] / "conf"
+    """hgo's configuration: ``hgo/conf`` inside an installed wheel (setup.py ships the
+    repository's ``conf/`` there), else the ``conf/`` folder of the checkout hgo runs from
+    (an editable install or ``PYTHONPATH``)."""
+    package = Path(__file__).resolve().parent
+    shipped = package / "conf"
+    return shipped if (shipped / "config.yaml").is_file() else package.parent / "conf"
 
 
 def compose(overrides: list[str], out_dir: Path | None = None) -> DictConfig:

@@ -70,8 +70,13 @@ class PaperFigure:
 def code_fingerprint() -> str:
     """Hash of hgo's sources and configs: a change to either invalidates every result."""
     h = hashlib.sha256()
-    for path in sorted([*(ROOT / "hgo").rglob("*.py"), *(ROOT / "conf").rglob("*.yaml")]):
-        h.update(str(path.relative_to(ROOT)).encode())
+    from hgo.config import conf_dir
+
+    conf = conf_dir()  # the checkout's conf/ or the wheel's hgo/conf: named alike
+    files = [(str(p.relative_to(ROOT)), p) for p in (ROOT / "hgo").rglob("*.py")]
+    files += [("conf/" + p.relative_to(conf).as_posix(), p) for p in conf.rglob("*.yaml")]
+    for name, path in sorted(files):
+        h.update(name.encode())
         h.update(path.read_bytes())
     return h.hexdigest()[:16]
 

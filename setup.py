@@ -1,0 +1,16 @@
+"""Packaging beyond pyproject.toml: ``conf/`` (the top-level folder of the repository, where
+users and Hydra find it in a checkout) ships inside the distribution as ``hgo/conf``, so an
+installed wheel finds its configuration (:func:`hgo.config.conf_dir`). pyproject.toml's
+``packages.find`` cannot add packages from outside ``hgo/``, hence this file. Each folder of
+``conf/`` is listed as a (data-only) package so setuptools ships its YAML files without
+warning about directories it would otherwise skip."""
+
+from setuptools import find_namespace_packages, find_packages, setup
+
+CONF = ["hgo.conf", *(f"hgo.conf.{name}" for name in find_namespace_packages(where="conf"))]
+
+setup(
+    packages=[*find_packages(include=["hgo", "hgo.*"]), *CONF],
+    package_dir={"hgo.conf": "conf"},
+    package_data={name: ["*.yaml"] for name in CONF},
+)
