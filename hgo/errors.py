@@ -15,7 +15,12 @@ from __future__ import annotations
 import yaml
 
 
-class ConfigError(ValueError):
+class HgoError(Exception):
+    """What hgo's Python API (:mod:`hgo.api`) raises: the one line ``hgo run`` prints after
+    ``error:`` (the original exception is its ``__cause__``)."""
+
+
+class ConfigError(HgoError, ValueError):
     """A bad configuration value: ``key`` (full dotted key), ``problem``, ``allowed``."""
 
     def __init__(self, key: str, problem: str, allowed: str | None = None) -> None:
