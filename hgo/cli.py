@@ -48,6 +48,12 @@ def _list(args: list[str]) -> int:
     return main(args)
 
 
+def _view(args: list[str]) -> int:
+    from hgo.view_cli import main
+
+    return main(args)
+
+
 def _runs_command(name: str):
     def command(args: list[str]) -> int:
         from hgo import runs_cli
@@ -69,6 +75,8 @@ COMMANDS = {
                                     "--compare A B)"),
     "show": (_runs_command("show"), "one run: status, provenance, config, metrics"),
     "export": (_runs_command("export"), "a recording as CSV or Parquet (--format csv|parquet)"),
+    "view": (_view, "open runs (a sweep directory: all its jobs) in the Rerun viewer, each its "
+                    "own recording (--web: serve to a browser and print the ports to forward)"),
 }
 
 
