@@ -44,7 +44,7 @@ from scipy.integrate._ivp.rk import RK45
 from hgo.engine import simulate as engine
 from hgo.engine.codegen import load_kernel
 from hgo.papers.dimassi.reference import X0, Example
-from hgo.runner import run_experiment
+from hgo.running.runner import run_experiment
 
 HORIZON = 20.0
 FAST_POLE = 4.0 / Example().eps  # |-gamma-root| of the HGO (27): s^2 + 6 s/eps + 8/eps^2

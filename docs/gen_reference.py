@@ -58,7 +58,7 @@ values (`observer.sign_indefinite.p2=3,2,1.5`) as a sweep. Hydra's flags that ma
 | flag | what it does |
 |---|---|
 | `-m`, `--multirun` | a sweep: one job per combination, one line per job, a summary at the end |
-| `--config-dir DIR`, `-cd DIR` | adds DIR's groups and presets to hgo's (hgo's win on equal names) |
+| `--config-dir DIR`, `-cd DIR` | adds DIR's groups and presets to hgo's (hgo's win ties) |
 | `--cfg job` | prints the composed config and exits (`--cfg hydra`: Hydra's own node) |
 | `--info` | where each config came from (search path, defaults tree) |
 | `--help` | the config groups and their options, and the composed config |
@@ -92,7 +92,7 @@ def _schemas() -> dict[str, type]:
     from hydra.core.config_store import ConfigStore
     from omegaconf import OmegaConf
 
-    from hgo.config import register_configs
+    from hgo.core.config import register_configs
 
     register_configs()
     found: dict[str, type] = {}
@@ -192,8 +192,7 @@ def _option_row(path: Path) -> str:
 
 
 def groups_section() -> str:
-    from hgo.catalog import groups
-    from hgo.config import conf_dir
+    from hgo.core.config import conf_dir, groups
 
     root = conf_dir()
     lines = ["## Config groups\n\n",
@@ -210,8 +209,7 @@ def groups_section() -> str:
 
 
 def presets_section() -> str:
-    from hgo.catalog import groups
-    from hgo.config import conf_dir
+    from hgo.core.config import conf_dir, groups
 
     root = conf_dir()
     lines = ["## Experiment presets\n\n`hgo run experiment=<name>`; the file is "

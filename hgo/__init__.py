@@ -17,9 +17,9 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # what the lazy names are, for type checkers and readers
-    from hgo import runs
     from hgo.api import HgoError, Result, compose, run, sweep
-    from hgo.recording import read_recording
+    from hgo.outputs import runs
+    from hgo.outputs.recording import read_recording
 
 # public name -> (module, attribute; None: the module itself)
 _LAZY: dict[str, tuple[str, str | None]] = {
@@ -27,9 +27,9 @@ _LAZY: dict[str, tuple[str, str | None]] = {
     "run": ("hgo.api", "run"),
     "sweep": ("hgo.api", "sweep"),
     "Result": ("hgo.api", "Result"),
-    "HgoError": ("hgo.errors", "HgoError"),
-    "read_recording": ("hgo.recording", "read_recording"),
-    "runs": ("hgo.runs", None),
+    "HgoError": ("hgo.core.errors", "HgoError"),
+    "read_recording": ("hgo.outputs.recording", "read_recording"),
+    "runs": ("hgo.outputs.runs", None),
 }
 
 __all__ = ["HgoError", "Result", "__version__", "compose", "read_recording", "run", "runs",

@@ -3,7 +3,7 @@ notebook or a script. Everything here is re-exported from :mod:`hgo` (``hgo.run`
 ``hgo.compose``, ``hgo.sweep``, ``hgo.Result``, ``hgo.HgoError``).
 
 Errors of the configuration (an unknown option, a misspelt key, a bad value) raise
-:class:`~hgo.errors.HgoError` with the one line ``hgo run`` prints after ``error:``; the
+:class:`~hgo.core.errors.HgoError` with the one line ``hgo run`` prints after ``error:``; the
 original exception is its ``__cause__``. A simulation that stops early (diverged, step
 limit) is not an error here: its :class:`Result` says so in ``status``.
 """
@@ -20,7 +20,7 @@ from typing import Any
 import pandas as pd
 from omegaconf import DictConfig, OmegaConf, open_dict
 
-from hgo.errors import HgoError, is_config_error, one_line
+from hgo.core.errors import HgoError, is_config_error, one_line
 
 __all__ = ["HgoError", "Result", "compose", "run", "signals_frame", "sweep"]
 
@@ -89,7 +89,7 @@ def compose(overrides: Sequence[str] | None = None,
     Raises:
         HgoError: the one-line message of a bad override or config.
     """
-    from hgo.config import compose as compose_config
+    from hgo.core.config import compose as compose_config
 
     with _as_hgo_errors():
         return compose_config(list(overrides or []), config_dir=config_dir)
@@ -104,7 +104,7 @@ def _config(cfg_or_overrides: DictConfig | Sequence[str] | None) -> DictConfig:
 
 
 def signals_frame(t, series) -> pd.DataFrame:
-    """``hgo.recording.Series`` on the time grid ``t`` as one DataFrame indexed by
+    """``hgo.outputs.recording.Series`` on the time grid ``t`` as one DataFrame indexed by
     ``sim_time``, columns named as :func:`hgo.read_recording` names them."""
     columns = {f"{s.entity}/{name}": s.values[:, j]
                for s in series for j, name in enumerate(s.names)}
@@ -112,14 +112,14 @@ def signals_frame(t, series) -> pd.DataFrame:
 
 
 def _status(traj) -> str:
-    """The status ``run.json`` records (:func:`hgo.runner.track`)."""
-    from hgo.metrics import status_word
+    """The status ``run.json`` records (:func:`hgo.running.runner.track`)."""
+    from hgo.outputs.metrics import status_word
 
     return "ok" if traj.ok else f"{status_word(traj.status)}: {traj.message}"
 
 
 def _refuse_ensemble(cfg: DictConfig) -> None:
-    from hgo.ensemble_runner import is_ensemble
+    from hgo.running.ensemble_runner import is_ensemble
 
     if is_ensemble(cfg):
         raise HgoError("ensemble: hgo.run runs one simulation; run ensemble.size / "
@@ -127,7 +127,7 @@ def _refuse_ensemble(cfg: DictConfig) -> None:
 
 
 def _in_memory(cfg: DictConfig) -> Result:
-    from hgo.runner import signals, simulate_config
+    from hgo.running.runner import signals, simulate_config
 
     mem = simulate_config(cfg)
     traj = mem.trajectory
@@ -150,9 +150,9 @@ def _hydra_files(cfg: DictConfig, out_dir: Path) -> None:
 
 def _into_directory(cfg: DictConfig, out_dir: Path) -> Result:
     """What ``hgo run`` writes: recording, metrics, figures, run.json, .hydra/, marker."""
-    from hgo.job import mark_complete
-    from hgo.runner import SimulationFailed
-    from hgo.runner import run as run_to_directory
+    from hgo.running.job import mark_complete
+    from hgo.running.runner import SimulationFailed
+    from hgo.running.runner import run as run_to_directory
 
     out_dir.mkdir(parents=True, exist_ok=True)
     if "hydra" in cfg:
@@ -230,8 +230,8 @@ def sweep(cfg: DictConfig | Sequence[str] | None = None,
     Raises:
         HgoError: the one-line message of a bad config or grid key.
     """
-    from hgo.ensemble_runner import run_ensemble
-    from hgo.runner import figure_nodes
+    from hgo.running.ensemble_runner import run_ensemble
+    from hgo.running.figures import figure_nodes
 
     with _as_hgo_errors():
         cfg = _config(cfg).copy()

@@ -18,7 +18,7 @@ from hgo.observers.homogeneous_dynamic import (
     linear_gains,
 )
 from hgo.plants.contois import invariance_eps, rate_bound, x2_high, x2_low
-from hgo.runner import run
+from hgo.running.runner import run
 
 
 @pytest.mark.parametrize(("d", "hom", "gains"), [(0.0, True, (2.0, 12.0)),
@@ -92,7 +92,7 @@ def test_schedule_errors_and_values():
 @pytest.fixture(scope="module")
 def paper_run(tmp_path_factory):
     """apa_fig2 through runner.run (files written), horizon 50."""
-    from hgo.config import compose
+    from hgo.core.config import compose
 
     out = tmp_path_factory.mktemp("apa_fig2")
     return run(compose(["experiment=apa_fig2"], out), out)
@@ -142,9 +142,9 @@ def test_initial_gains_are_the_equilibrium_of_8(paper_run):
 def test_presets_build_the_scenarios_of_the_notes(preset, hbar_o, noise):
     """Each preset composes and builds: the observers' hbar_o, the noise, and the constants
     computed from hbar_o (eps2 = u_min hbar/(1 - u_min (1 - hbar)), df2max from the search)."""
-    from hgo.config import compose
+    from hgo.core.config import compose
     from hgo.plants.contois import df2max
-    from hgo.runner import build
+    from hgo.running.runner import build
 
     exp = build(compose([f"experiment={preset}"]))
     assert exp.noise.kind == noise and exp.system.plant.p[0] == 1.0

@@ -6,10 +6,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from hgo.ensemble import draw_members
-from hgo.ensemble_runner import run_ensemble
-from hgo.metrics import window_means
-from hgo.runner import build, run_experiment
+from hgo.outputs.metrics import window_means
+from hgo.running.ensemble import draw_members
+from hgo.running.ensemble_runner import run_ensemble
+from hgo.running.runner import build, run_experiment
 
 SMALL = ["experiment=sp_ensemble", "ensemble.size=6", "solver.t_end=20", "metrics.window=5"]
 

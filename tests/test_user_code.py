@@ -16,7 +16,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 VDP = '''"""Van der Pol, x1' = x2, x2' = mu (1 - x1^2) x2 - x1, y = x1."""
 import numpy as np
-from hgo.components import Plant
+from hgo.core.components import Plant
 
 
 def vdp_f(t, x, u, p, dx):

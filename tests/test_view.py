@@ -14,8 +14,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from hgo.recording import Series, write_recording
-from hgo.view_cli import all_recordings, main, recordings, viewer_command
+from hgo.cli.view import all_recordings, main, recordings, viewer_command
+from hgo.outputs.recording import Series, write_recording
 
 ROOT = Path(__file__).resolve().parents[1]
 

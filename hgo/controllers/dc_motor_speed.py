@@ -32,7 +32,7 @@ import math
 
 import numpy as np
 
-from hgo.components import Controller
+from hgo.core.components import Controller
 from hgo.engine.jit import kernel_helper
 
 #: Names of the entries of the parameter vector p.

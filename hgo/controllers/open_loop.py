@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from hgo.components import Controller
+from hgo.core.components import Controller
 
 #: Names of the entries of the parameter vector p.
 PARAM_NAMES = ["a", "b", "omega"]

@@ -26,7 +26,7 @@ import math
 
 import numpy as np
 
-from hgo.components import Controller
+from hgo.core.components import Controller
 from hgo.engine.jit import kernel_helper
 
 KINDS = {"bad": 0, "pulse": 1, "pulse_return": 2, "sin": 3}

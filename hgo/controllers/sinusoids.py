@@ -13,7 +13,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from hgo.components import Controller
+from hgo.core.components import Controller
 
 
 def u(t, xhat, y, p, u_out):

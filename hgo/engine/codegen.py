@@ -25,7 +25,7 @@ import warnings
 from pathlib import Path
 from types import ModuleType
 
-from hgo.components import no_update
+from hgo.core.components import no_update
 from hgo.engine import tableau
 from hgo.engine.jit import borrow_function, view_function
 from hgo.engine.system import System

@@ -49,7 +49,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from hgo.components import Observer
+from hgo.core.components import Observer
 from hgo.engine.jit import kernel_helper
 
 HEAD = ["n", "N", "m", "q", "r", "p", "eps", "delta", "sigma", "sigma2", "psi_at",

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from hgo.components import Observer
+from hgo.core.components import Observer
 from hgo.plants.circle_form import CircleFormPlant, poly
 
 

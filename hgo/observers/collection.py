@@ -45,8 +45,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from hgo.components import Observer
-from hgo.errors import as_floats
+from hgo.core.components import Observer
+from hgo.core.errors import as_floats
 
 SCALINGS = {"constant": 0.0, "high_gain": 1.0}
 HEAD = 6  # N, n, p1, p2, b, q

@@ -50,7 +50,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from hgo.components import Observer
+from hgo.core.components import Observer
 from hgo.engine.jit import kernel_helper
 from hgo.plants.contois import (
     clip,

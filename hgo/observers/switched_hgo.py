@@ -53,7 +53,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from hgo.components import Observer
+from hgo.core.components import Observer
 from hgo.engine.jit import kernel_helper
 
 #: Names of the discrete state entries (see module docstring).

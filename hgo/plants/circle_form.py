@@ -24,9 +24,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from hgo.components import Plant
+from hgo.core.components import Plant
 from hgo.engine.jit import kernel_helper
-from hgo.papers.moreno.sector import global_sector_lower
+from hgo.plants.sector import global_sector_lower
 
 
 @kernel_helper

@@ -27,7 +27,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from hgo.components import Plant
+from hgo.core.components import Plant
 from hgo.engine.jit import kernel_helper
 
 PARAM_NAMES = ["hbar"]

@@ -24,7 +24,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from hgo.components import Plant
+from hgo.core.components import Plant
 
 #: Names of the entries of the parameter vector p.
 PARAM_NAMES = ["a", "b", "c", "d", "e"]

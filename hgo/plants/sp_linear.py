@@ -13,7 +13,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from hgo.components import Plant
+from hgo.core.components import Plant
 
 
 def f(t, x, u, p, dx):

@@ -8,10 +8,10 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from hgo.controllers.profile_input import profile_input
+from hgo.core.registry import PaperFigure
 from hgo.engine.simulate import Trajectory, simulate
 from hgo.engine.system import System
-from hgo.figures import legend_outside, panel_letters, save_figure
-from hgo.reproduce import PaperFigure
+from hgo.outputs.figures import legend_outside, panel_letters, save_figure
 
 BAND = 2 / math.sqrt(3)  # |sigma| <= 2/sqrt(3): phi can leave (-1, inf]
 

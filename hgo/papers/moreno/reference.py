@@ -14,8 +14,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from hgo.components import Controller
 from hgo.controllers.profile_input import breakpoints, profile
+from hgo.core.components import Controller
 from hgo.observers.circle_criterion import CircleCriterionObserver
 from hgo.plants.circle_form import example_rhs
 

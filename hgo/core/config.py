@@ -17,7 +17,7 @@ from typing import Any
 from hydra.core.config_store import ConfigStore
 from omegaconf import DictConfig, open_dict
 
-from hgo.papers import paper_modules
+from hgo.core.registry import paper_modules
 
 
 @dataclass
@@ -90,7 +90,7 @@ class EnsembleConf:
     [[low, high], ...] (vector), drawn uniformly with ``seed``; ``grid``: dotted key ->
     value list (Cartesian product, ``size`` replicates per point); ``shard``: "i/N" runs
     the i-th of N blocks of the members; ``reports``: name -> ``_target_`` of
-    ``f(result, out_dir)`` (see :mod:`hgo.ensemble_runner`)."""
+    ``f(result, out_dir)`` (see :mod:`hgo.running.ensemble_runner`)."""
 
     size: int = 0
     seed: int = 0
@@ -110,7 +110,7 @@ class RecordingMode(Enum):
 class RecordingConf:
     """``mode`` in {full, decimated, off} (checked when Hydra composes); ``max_rows``
     (decimated): at most this many rows, the min/max envelope per bucket
-    (:mod:`hgo.decimate`)."""
+    (:mod:`hgo.outputs.decimate`)."""
 
     mode: RecordingMode = RecordingMode.full
     max_rows: int = 16384
@@ -136,9 +136,16 @@ def conf_dir() -> Path:
     """hgo's configuration: ``hgo/conf`` inside an installed wheel (setup.py ships the
     repository's ``conf/`` there), else the ``conf/`` folder of the checkout hgo runs from
     (an editable install or ``PYTHONPATH``)."""
-    package = Path(__file__).resolve().parent
+    package = Path(__file__).resolve().parents[1]  # hgo/
     shipped = package / "conf"
     return shipped if (shipped / "config.yaml").is_file() else package.parent / "conf"
+
+
+def groups(root: Path | None = None) -> dict[str, list[str]]:
+    """Config group -> its options (file stems), ``experiment`` included."""
+    root = root or conf_dir()
+    return {d.name: sorted(p.stem for p in d.glob("*.yaml"))
+            for d in sorted(root.iterdir()) if d.is_dir()}
 
 
 def search_path_override(config_dir: str | Path | None) -> list[str]:
@@ -149,7 +156,7 @@ def search_path_override(config_dir: str | Path | None) -> list[str]:
         return []
     path = Path(config_dir).resolve()
     if not path.is_dir():
-        from hgo.errors import ConfigError
+        from hgo.core.errors import ConfigError
 
         raise ConfigError("config_dir", f"'{path}' is not a directory")
     return [f"hydra.searchpath=[file://{path}]"]

@@ -2,7 +2,7 @@
 
 A RUN is a run directory (its ``recording.rrd``), a sweep or ensemble directory (every
 ``recording.rrd`` below it: all its jobs), or an ``.rrd`` file. Every run was written with a
-recording id of its own (:func:`hgo.runner.recording_id`), so the viewer lists them side by
+recording id of its own (:func:`hgo.running.runner.recording_id`), so the viewer lists them side by
 side and a view can show one series of several runs together.
 
 ``--web`` serves them to a browser instead (a headless machine): Rerun's web viewer is a page

@@ -41,9 +41,9 @@ from hgo.engine.jit import kernel_helper
 from hgo.engine.simulate import Trajectory
 from hgo.engine.system import System
 from hgo.observers import homogeneous_dynamic as hd
+from hgo.outputs.recording import Series
 from hgo.plants.contois import clip, df2_dx2, reaction_rate, x2_high, x2_low
 from hgo.postprocess import PostOutput
-from hgo.recording import Series
 
 RATE = "/apa/rate"
 

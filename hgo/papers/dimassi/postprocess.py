@@ -47,8 +47,8 @@ import numpy as np
 from hgo.engine.simulate import SolverSettings, Trajectory, no_noise, simulate
 from hgo.engine.system import System
 from hgo.observers import adaptive_cascade as ac
+from hgo.outputs.recording import Series
 from hgo.postprocess import PostOutput
-from hgo.recording import Series
 
 
 def settle_time(t: np.ndarray, err: np.ndarray, band: float) -> float:
@@ -350,7 +350,8 @@ def dhlm_metrics(window_start: float = 10.0, T_eps_factor: float = 25.0, peak_ba
                  state_bands: list[float] | None = None, theta_pcts: list[float] | None = None,
                  theta: list[float] | None = None, theory: bool = True,
                  beta: str = "measured") -> DHLMMetrics:
-    """Factory of the ``postprocess`` group (``_target_: hgo.postprocess.dhlm.dhlm_metrics``)."""
+    """Factory of the ``postprocess`` group
+    (``_target_: hgo.papers.dimassi.postprocess.dhlm_metrics``)."""
     return DHLMMetrics(float(window_start), float(T_eps_factor), float(peak_band),
                        list(state_bands or [0.2, 0.05, 0.01]),
                        list(theta_pcts or [1.0, 5.0, 10.0, 25.0]),
