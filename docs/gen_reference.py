@@ -119,10 +119,18 @@ def _default(field: dataclasses.Field) -> str:
     return f"`{value!r}`"
 
 
-def _type(field: dataclasses.Field) -> str:
+def _type(cls: type, field: dataclasses.Field) -> str:
+    """The annotation as written; an Enum's allowed values (the schema checks them)."""
+    import enum
+    import typing
+
     kind = field.type if isinstance(field.type, str) else getattr(field.type, "__name__",
                                                                    str(field.type))
-    return f"`{kind}`".replace("|", "\\|")
+    text = f"`{kind}`"
+    resolved = typing.get_type_hints(cls).get(field.name)
+    if isinstance(resolved, type) and issubclass(resolved, enum.Enum):
+        text += ": one of " + ", ".join(f"`{m.value}`" for m in resolved)
+    return text.replace("|", "\\|")
 
 
 def _doc(cls: type) -> str:
@@ -146,7 +154,7 @@ def schema_section() -> str:
             lines.append(f"{doc}\n\n")
         lines.append("| key | type | default |\n|---|---|---|\n")
         for field in dataclasses.fields(cls):
-            lines.append(f"| `{field.name}` | {_type(field)} | {_default(field)} |\n")
+            lines.append(f"| `{field.name}` | {_type(cls, field)} | {_default(field)} |\n")
     return "".join(lines)
 
 
