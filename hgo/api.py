@@ -155,6 +155,7 @@ def _into_directory(cfg: DictConfig, out_dir: Path) -> Result:
     from hgo.running.runner import run as run_to_directory
 
     out_dir.mkdir(parents=True, exist_ok=True)
+    cfg = cfg.copy()  # (the caller's config keeps its own run directory)
     if "hydra" in cfg:
         with open_dict(cfg):
             cfg.hydra.runtime.output_dir = str(out_dir.resolve())

@@ -9,6 +9,7 @@ import sys
 import numpy as np
 import pandas as pd
 import pytest
+from omegaconf import OmegaConf
 
 import hgo
 
@@ -34,7 +35,10 @@ def test_public_names_and_version():
 
 def test_run_in_memory_names_signals_as_the_recording_does(tmp_path):
     memory = hgo.run(SHORT)
-    written = hgo.run(hgo.compose(SHORT), out_dir=tmp_path / "run")
+    cfg = hgo.compose(SHORT)
+    written = hgo.run(cfg, out_dir=tmp_path / "run")
+    assert OmegaConf.is_missing(cfg.hydra.runtime, "output_dir")  # the caller's cfg unchanged
+    assert written.config.hydra.runtime.output_dir == str((tmp_path / "run").resolve())
     assert memory.status == written.status == "ok" and memory.out_dir is None
     assert memory.signals.index.name == "sim_time"
     assert memory.signals.index[-1] == pytest.approx(5.0)
