@@ -1,11 +1,11 @@
 """hgo's Python API: compose a config, run it, sweep a grid — what ``hgo run`` does, from a
-notebook or a script. Everything here is re-exported from :mod:`hgo` (``hgo.run``,
+notebook or a script. Everything here is re-exported from ``hgo`` (``hgo.run``,
 ``hgo.compose``, ``hgo.sweep``, ``hgo.Result``, ``hgo.HgoError``).
 
 Errors of the configuration (an unknown option, a misspelt key, a bad value) raise
-:class:`~hgo.core.errors.HgoError` with the one line ``hgo run`` prints after ``error:``; the
+``hgo.HgoError`` with the one line ``hgo run`` prints after ``error:``; the
 original exception is its ``__cause__``. A simulation that stops early (diverged, step
-limit) is not an error here: its :class:`Result` says so in ``status``.
+limit) is not an error here: its ``Result`` says so in ``status``.
 """
 
 from __future__ import annotations
@@ -27,14 +27,14 @@ __all__ = ["HgoError", "Result", "compose", "run", "signals_frame", "sweep"]
 
 @dataclass
 class Result:
-    """One run of :func:`run`.
+    """One run of ``run``.
 
     Attributes:
         config: the composed config (Hydra's node included).
         metrics: the metrics table, as ``metrics.csv``: one row per (observer, quantity)
             with ``empirical``, ``bound``, ``ratio``, ``holds``, ``verdict``, ``status``.
         signals: every logged series, indexed by ``sim_time`` (seconds), one column per
-            series named ``<entity>/<series>`` as :func:`hgo.read_recording` names them
+            series named ``<entity>/<series>`` as ``hgo.read_recording`` names them
             (``/plant/x/x1``, ``/observer/<name>/xhat/x1_hat``, ``/error/<name>/e_x1``).
         status: ``"ok"``, or ``"failed: <why>"`` / ``"interrupted: <why>"`` for a run that
             stopped early (its signals end there, its metrics are NaN).
@@ -65,7 +65,7 @@ class Result:
 
 @contextmanager
 def _as_hgo_errors() -> Iterator[None]:
-    """Configuration errors as :class:`HgoError` with the CLI's one line."""
+    """Configuration errors as ``HgoError`` with the CLI's one line."""
     try:
         yield
     except HgoError:
@@ -105,14 +105,14 @@ def _config(cfg_or_overrides: DictConfig | Sequence[str] | None) -> DictConfig:
 
 def signals_frame(t, series) -> pd.DataFrame:
     """``hgo.outputs.recording.Series`` on the time grid ``t`` as one DataFrame indexed by
-    ``sim_time``, columns named as :func:`hgo.read_recording` names them."""
+    ``sim_time``, columns named as ``hgo.read_recording`` names them."""
     columns = {f"{s.entity}/{name}": s.values[:, j]
                for s in series for j, name in enumerate(s.names)}
     return pd.DataFrame(columns, index=pd.Index(t, name="sim_time"))
 
 
 def _status(traj) -> str:
-    """The status ``run.json`` records (:func:`hgo.running.runner.track`)."""
+    """The status ``run.json`` records (``hgo.running.runner.track``)."""
     from hgo.outputs.metrics import status_word
 
     return "ok" if traj.ok else f"{status_word(traj.status)}: {traj.message}"
@@ -176,13 +176,13 @@ def run(cfg_or_overrides: DictConfig | Sequence[str] | None = None,
     """Run one experiment, e.g. ``hgo.run(["experiment=sp_fig1", "solver.t_end=5"])``.
 
     Args:
-        cfg_or_overrides: a config from :func:`compose`, or a list of overrides.
+        cfg_or_overrides: a config from ``compose``, or a list of overrides.
         out_dir: write the run directory ``hgo run`` writes (``recording.rrd``,
             ``metrics.csv``, figures, ``run.json``, ``.hydra/``) here; None (default):
             write nothing.
 
     Returns:
-        The :class:`Result`; a run that stopped early is returned too (see ``status``).
+        The ``Result``; a run that stopped early is returned too (see ``status``).
 
     Raises:
         HgoError: the one-line message of a bad config (as ``hgo run`` prints it).
@@ -218,7 +218,7 @@ def sweep(cfg: DictConfig | Sequence[str] | None = None,
     grid={"observer.sign_indefinite.p2": [0.004, 0.008]})``.
 
     Args:
-        cfg: a config from :func:`compose`, or a list of overrides.
+        cfg: a config from ``compose``, or a list of overrides.
         grid: dotted key -> values; their Cartesian product (``ensemble.grid``), with
             ``ensemble.size`` replicates per point. None: the config's own grid.
         out_dir: write the ensemble's directory (``metrics.csv``, its reports, member 0's

@@ -16,7 +16,7 @@ import yaml
 
 
 class HgoError(Exception):
-    """What hgo's Python API (:mod:`hgo.api`) raises: the one line ``hgo run`` prints after
+    """What hgo's Python API (``hgo.api``) raises: the one line ``hgo run`` prints after
     ``error:`` (the original exception is its ``__cause__``)."""
 
 
