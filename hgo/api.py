@@ -65,13 +65,14 @@ class Result:
 
 @contextmanager
 def _as_hgo_errors() -> Iterator[None]:
-    """Configuration errors as ``HgoError`` with the CLI's one line."""
+    """What ``hgo run`` reports as one line — configuration errors, and a folder that cannot
+    be written (``OSError``) — as ``HgoError`` with that line; anything else (a bug) as is."""
     try:
         yield
     except HgoError:
         raise
     except Exception as err:
-        if not is_config_error(err):
+        if not (is_config_error(err) or isinstance(err, OSError)):
             raise
         raise HgoError(one_line(err)) from err
 

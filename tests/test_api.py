@@ -95,6 +95,12 @@ def test_errors_are_hgo_errors_with_the_cli_line(overrides, line):
     assert cli.stderr.strip().splitlines()[-1] == f"error: {caught.value}"
 
 
+def test_an_unwritable_out_dir_is_an_hgo_error(tmp_path):
+    (tmp_path / "file").write_text("")
+    with pytest.raises(hgo.HgoError, match="file"):
+        hgo.run(SHORT, out_dir=tmp_path / "file" / "run")
+
+
 def test_run_refuses_an_ensemble_and_points_at_sweep():
     with pytest.raises(hgo.HgoError, match=r"use|hgo.sweep"):
         hgo.run([*SHORT, "ensemble.size=2"])
