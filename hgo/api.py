@@ -10,6 +10,7 @@ limit) is not an error here: its ``Result`` says so in ``status``.
 
 from __future__ import annotations
 
+import logging
 import tempfile
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager, nullcontext
@@ -149,8 +150,31 @@ def _hydra_files(cfg: DictConfig, out_dir: Path) -> None:
                        hydra_dir / "overrides.yaml")
 
 
+@contextmanager
+def _job_log(out_dir: Path) -> Iterator[None]:
+    """hgo's log lines of the run into ``<out_dir>/app.log``, in the format of Hydra's job
+    log (``hgo run`` writes that file); nothing more on the console than before."""
+    logger = logging.getLogger("hgo")
+    handler = logging.FileHandler(out_dir / "app.log")
+    handler.setFormatter(logging.Formatter("[%(asctime)s][%(name)s][%(levelname)s] - "
+                                           "%(message)s"))
+    level, propagate = logger.level, logger.propagate
+    logger.addHandler(handler)
+    if logger.getEffectiveLevel() > logging.INFO:  # INFO to the file only
+        logger.setLevel(logging.INFO)
+        logger.propagate = False
+    try:
+        yield
+    finally:
+        logger.removeHandler(handler)
+        handler.close()
+        logger.setLevel(level)
+        logger.propagate = propagate
+
+
 def _into_directory(cfg: DictConfig, out_dir: Path) -> Result:
-    """What ``hgo run`` writes: recording, metrics, figures, run.json, .hydra/, marker."""
+    """What ``hgo run`` writes: recording, metrics, figures, run.json, app.log, .hydra/ and
+    the completion marker."""
     from hgo.running.job import mark_complete
     from hgo.running.runner import SimulationFailed
     from hgo.running.runner import run as run_to_directory
@@ -161,12 +185,13 @@ def _into_directory(cfg: DictConfig, out_dir: Path) -> Result:
         with open_dict(cfg):
             cfg.hydra.runtime.output_dir = str(out_dir.resolve())
     _hydra_files(cfg, out_dir)
-    try:
-        done = run_to_directory(cfg, out_dir)
-    except SimulationFailed as err:  # outputs up to the stop are written
-        done = err.result
-    else:
-        mark_complete(cfg, out_dir)
+    with _job_log(out_dir):
+        try:
+            done = run_to_directory(cfg, out_dir)
+        except SimulationFailed as err:  # outputs up to the stop are written
+            done = err.result
+        else:
+            mark_complete(cfg, out_dir)
     traj = done.trajectory
     return Result(cfg, done.metrics, signals_frame(traj.t, done.series), _status(traj),
                   dict(done.timings), out_dir)

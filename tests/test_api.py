@@ -55,7 +55,9 @@ def test_run_with_out_dir_writes_what_hgo_run_writes(tmp_path):
     out = tmp_path / "run"
     result = hgo.run(SHORT, out_dir=out)
     names = {p.name for p in out.iterdir()}
-    assert {"recording.rrd", "metrics.csv", "run.json", "fig1.png", ".hydra", ".hgo_done"} <= names
+    assert names == {"recording.rrd", "metrics.csv", "run.json", "fig1.png", ".hydra",
+                     ".hgo_done", "app.log"}  # the files `hgo run` writes (tests/test_cli.py)
+    assert "[hgo.running.runner][INFO] - integrating t = 0 .. 5 s" in (out / "app.log").read_text()
     assert {p.name for p in (out / ".hydra").iterdir()} == {"config.yaml", "hydra.yaml",
                                                            "overrides.yaml"}
     info = json.loads((out / "run.json").read_text())
