@@ -50,9 +50,13 @@ REPORT_ONLY = ("hgo/reproduce/report.py", "hgo/reproduce/notation.py")
 def code_fingerprint() -> str:
     """Hash of hgo's sources and configs: a change to either invalidates every result (a
     change to the report's rendering, :data:`REPORT_ONLY` and its templates, does not)."""
+    from hgo.core.config import conf_dir
+
     h = hashlib.sha256()
-    for path in sorted([*(ROOT / "hgo").rglob("*.py"), *(ROOT / "conf").rglob("*.yaml")]):
-        name = path.relative_to(ROOT).as_posix()
+    conf = conf_dir()  # the checkout's conf/ or the wheel's hgo/conf: named alike
+    files = [(p.relative_to(ROOT).as_posix(), p) for p in (ROOT / "hgo").rglob("*.py")]
+    files += [("conf/" + p.relative_to(conf).as_posix(), p) for p in conf.rglob("*.yaml")]
+    for name, path in sorted(files):
         if name in REPORT_ONLY:
             continue
         h.update(name.encode())

@@ -28,7 +28,7 @@ can run it).
 The three recordings of the sweep open together in the Rerun viewer (each job has its own
 recording id, so they do not merge):
 
-    rerun outputs/multirun/sp_fig3/<date_time>/job*/recording.rrd
+    hgo view outputs/multirun/sp_fig3/<date_time>      (--web on a headless machine)
 """
 
 from __future__ import annotations
@@ -259,9 +259,8 @@ def aggregate(sweep: str | Path, out: str | Path | None = None,
     for line in skipped + failed:
         print(f"aggregate: {line}", file=sys.stderr)
     print(f"aggregate: {len(labels)} job(s) -> " + ", ".join(str(p) for p in paths.values()))
-    rrds = sorted(str(p) for p in sweep.glob("*/recording.rrd"))
-    if rrds:
-        print("open together in the Rerun viewer:  rerun " + " ".join(rrds))
+    if any(sweep.glob("*/recording.rrd")):
+        print(f"open together in the Rerun viewer:  hgo view {sweep}")
     return paths
 
 
