@@ -28,7 +28,7 @@ from pathlib import Path
 
 import matplotlib
 import numpy as np
-from cycler import cycler
+from matplotlib import cycler  # (matplotlib re-exports it: no extra dependency)
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
