@@ -76,6 +76,8 @@ def run_page(page: Path, folder: Path, monkeypatch) -> int:
             path = folder / block.title
             path.parent.mkdir(parents=True, exist_ok=True)
             path.write_text(block.body)
+            if path.suffix == ".py":  # this page's module, not one of that name imported before
+                monkeypatch.delitem(sys.modules, path.stem, raising=False)
         elif block.language == "python":
             exec(compile(block.body, where, "exec"), namespace)  # noqa: S102 - our own docs
         elif block.language == "bash":
