@@ -168,11 +168,6 @@ def named(component, values: np.ndarray):
     return values if spec is None else _param_vector(values, spec)
 
 
-def params_of(component) -> Params | None:
-    """The :class:`Params` of a component (None: positional ``p``)."""
-    return getattr(component.p, "spec", None)
-
-
 def _constant(name: str, value) -> Constant:
     """A constant as the kernel text writes it: numbers, bools, tuples of numbers (from
     lists and arrays), or a callable."""
