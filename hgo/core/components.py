@@ -105,6 +105,8 @@ class Params:
     def get(self, vector: np.ndarray, name: str):
         """Parameter ``name`` read from ``vector``: a float, a view of the array's
         entries, or the constant."""
+        if name == "scratch":  # scratch space of that many floats (the kernel's is on the stack)
+            return np.empty(self.constants[name])
         if name in self.constants:
             return self.constants[name]
         k = self.names.index(name)

@@ -31,7 +31,7 @@ from types import ModuleType
 
 from hgo.core.components import no_update
 from hgo.engine import tableau
-from hgo.engine.jit import borrow_function, view2_function, view_function
+from hgo.engine.jit import borrow_function, stack_function, view2_function, view_function
 from hgo.engine.system import System
 from hgo.engine.tableau import ADAPTIVE, method_source, scipy_tableau_files
 
@@ -144,16 +144,20 @@ def _records(system: System, names: dict) -> tuple[list[str], list[str]]:
                                  "at most 2 are supported")
         for name, value in spec.constants.items():
             fields.append(name)
+            if name == "scratch":  # scratch space on the caller's stack (hgo.engine.jit)
+                values.append("scratch")
+                continue
             values.append(names["const"][(k, name)] if callable(value) else _literal(value))
         lines += [f"_P{k} = namedtuple('_P{k}', {fields!r})", "", "",
-                  "@cjit", f"def _p{k}(P):",
+                  "@cjit", f"def _p{k}(P{', scratch' if 'scratch' in spec.constants else ''}):",
                   f'    """The parameters of {comp.name} by name: run-time values read from P, '
                   'constants."""',
                   f"    return _P{k}(",
                   *[f"        {name}={value}," for name, value in zip(fields, values,
                                                                      strict=True)],
                   "    )", "", ""]
-        args.append(f"_p{k}(P)")
+        scratch = spec.constants.get("scratch")
+        args.append(f"_p{k}(P, stack({scratch}))" if scratch else f"_p{k}(P)")
     return lines, args
 
 
@@ -545,7 +549,7 @@ def _decorators(compiled: bool) -> dict[str, object]:
     if not compiled:
         return {"jit": lambda fn: fn, "pjit": lambda fn: fn, "prange": range,
                 "view": view_function(False), "borrow": borrow_function(False),
-                "view2": view2_function(False),
+                "view2": view2_function(False), "stack": stack_function(False),
                 "ijit": lambda fn: fn, "component_jit": lambda fn: fn,
                 "cjit": lambda fn: fn}
     import numba
@@ -576,6 +580,7 @@ def _decorators(compiled: bool) -> dict[str, object]:
         "prange": numba.prange,
         "view": view_function(True),
         "view2": view2_function(True),
+        "stack": stack_function(True),
         "borrow": borrow_function(True),
     }
 

@@ -151,14 +151,15 @@ def f(t, z, d, y, u, p, dz):
             dz[nn + i] += p.L[i, k] * inn
     for k in range(q):  # (7): th^' = delta psi^T M (z_h^s - H x^) - sigma th^
         dz[nn + n + k] = -p.sigma * th[k]
-    # phi(x^a, u) and psi(x^a, u), evaluated once: [x^a (n) | phi (m) | psi (m x q)]
-    work = np.empty(n + m + m * q)
+    # phi(x^a, u) and psi(x^a, u), evaluated once into the scratch space (no heap):
+    # [x^a (n) | phi (m) | psi (m x q)]
+    work = p.scratch
     xa = work[:n]
     _argument(xh, y, p, xa)
     phi = work[n:n + m]
     if p.has_phi:
         p.phi(xa, u, phi)
-    psi = work[n + m:].reshape((m, q))
+    psi = work[n + m:n + m + m * q].reshape((m, q))
     p.psi(xa, u, psi)
     mi_sq = 0.0
     for j in range(m):  # row j of M (z_h^s - H x^) and of psi: (5) + B g, (7), (11)
@@ -346,7 +347,7 @@ def adaptive_cascade(name: str, A: Sequence, B: Sequence, C: Sequence, E: Sequen
                 "ideal": hgo == "ideal", "has_phi": phi is not None,
                 "phi": zero_phi if phi is None else phi, "psi": psi,
                 "out": out, "first": first, "last": [bool(v) for v in last],
-                "direct": [bool(v) for v in direct]},
+                "direct": [bool(v) for v in direct], "scratch": n + m + m * nq},
                eps=eps, delta=delta, sigma=sigma, sigma2=sigma2, K_phi=K_phi, K_psi=K_psi,
                A=A, B=B, E=E, H=H, L=L, M=M, C=C, Cp=np.linalg.pinv(C),
                Bz2=np.asarray(bz2).reshape(nn, r), Gamma=gains, S=S)
