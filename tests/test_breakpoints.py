@@ -142,7 +142,7 @@ def _u(ctrl, t_piece: float, t: float) -> float:
     """u of the piece containing t_piece, continued to t (the ramp's formula in force
     there, so a reference step ending at a corner sees the left piece)."""
     r0, dr = profile(t_piece, ctrl.p)
-    return dr + ctrl.p[1] * (r0 + dr * (t - t_piece))
+    return dr + ctrl.p.a * (r0 + dr * (t - t_piece))
 
 
 @pytest.mark.parametrize("a_plant", [0.5, 2.0])
