@@ -18,7 +18,7 @@ import re
 import time
 import uuid
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from datetime import datetime
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -204,8 +204,22 @@ def build(cfg: DictConfig) -> Experiment:
     noise = _instantiate(cfg.noise, "noise", NoiseModel)
     noise.check_channels(len(system.plant.output_names))
     post = build_postprocessors(cfg, system, solver)
+    solver = with_dense_steps(solver, post)
     check_cost(system, solver, noise)
     return Experiment(system, solver, noise, int(cfg.seed), post)
+
+
+def with_dense_steps(solver: SolverSettings, post: dict) -> SolverSettings:
+    """``solver`` keeping its steps (``dense_steps``) when a post-processor measures from
+    them (its ``needs_steps``: :mod:`hgo.postprocess.dense`); those need an adaptive
+    method (RK4 has no continuous extension)."""
+    needing = [name for name, obj in post.items() if getattr(obj, "needs_steps", False)]
+    if not needing:
+        return solver
+    if solver.method == "rk4":
+        raise ConfigError("solver.method", f"postprocess.{needing[0]} measures from the "
+                          "steps' continuous extension, which rk4 has not", "dopri5, dop853")
+    return replace(solver, dense_steps=True)
 
 
 def run_experiment(exp: Experiment) -> Trajectory:

@@ -37,7 +37,8 @@ from hgo.observers.circle_criterion import CircleCriterionObserver
 from hgo.outputs.recording import Series
 from hgo.papers.moreno.theory import CertificateDesign, ErrorSystem, certificate_design
 from hgo.plants.sector import sector_lower
-from hgo.postprocess import PostOutput
+from hgo.postprocess import PostOutput, dense
+from hgo.postprocess.dense import steps_of
 
 NORM_TIMES = (1.0, 5.0, 10.0, 20.0, 40.0)
 DEFAULT_WINDOW = 5.0  # Delta of Remark 6.3 for a non-periodic input (s)
@@ -132,6 +133,7 @@ class MorenoCertificate:
     norm_floor: float = 1e-6
     K1t_search: bool = False
     mu: float = 1e-7
+    needs_steps = True  # bound (i), settling, norms at instants: from the steps
 
     def __post_init__(self) -> None:
         if self.lambda_P not in LAMBDA_P:
@@ -165,12 +167,13 @@ class MorenoCertificate:
         window = self.window or input_period(system.controller) or DEFAULT_WINDOW
         for obs, (xa, xb) in zip(system.observers, system.xh_slices, strict=True):
             if isinstance(obs, CircleCriterionObserver):
-                self._one(obs, traj, traj.xh[:, xa:xb], window, out)
+                self._one(obs, traj, (xa, xb), window, out)
         return out
 
-    def _one(self, obs: CircleCriterionObserver, traj: Trajectory, xh: np.ndarray,
+    def _one(self, obs: CircleCriterionObserver, traj: Trajectory, cols: tuple[int, int],
              window: float, out: PostOutput) -> None:
         pl, t = obs.plant, traj.t
+        xh = traj.xh[:, cols[0]:cols[1]]
         x = traj.z[:, :pl.nx]
         sigma = x @ pl.H
         es, des = self.design(obs)
@@ -188,15 +191,13 @@ class MorenoCertificate:
         cert, _, eta = certificate(t, varrho, des.eps, window, des.kappa, norm[0])
         V = 0.5 * np.einsum("ij,jk,ik->i", e, des.P, e)
         V_bound = np.exp(-eta) * V[0]
-        edot = es.rhs(e.T, phi).T
-        Vdot = np.einsum("ij,jk,ik->i", e, des.P, edot)
-        live = norm > self.norm_floor
-        rate = Vdot[live] / V[live] + des.eps  # (9)-(11): rate <= varrho
-        margin_i = float(np.max(rate - varrho[live])) if live.any() else math.nan
-        viol = -theta[live] > 0
-        c_need = float(np.max(np.maximum(rate[viol], 0.0) / -theta[live][viol])) \
-            if viol.any() else 0.0
-        if np.any(rate[~viol] > 1e-9):
+        bound_i = _BoundI(pl, es, des, c, cols, self.norm_floor)
+        run, T = steps_of(traj), traj.t_stop
+        margin_i = dense.maximum(run, bound_i.margin, 0.0, T)[0]
+        margin_i = margin_i if math.isfinite(margin_i) else math.nan  # (never live)
+        c_need = max(dense.maximum(run, bound_i.c_needed, 0.0, T)[0], 0.0)
+        rate, theta_live = bound_i.rate(traj), bound_i.theta(traj)
+        if np.any(rate[theta_live >= 0] > 1e-9):
             c_need = math.inf  # V'/V > -eps where theta >= 0: no c can hold
         ratio_ii = float(np.max(norm / (des.kappa * np.exp(-eta / 2) * norm[0])))
         name = obs.name
@@ -212,10 +213,11 @@ class MorenoCertificate:
             "max_varrho_last_quarter": cert.max_varrho_last_quarter,
             "window_14": window, "margin_i": margin_i, "c_need": c_need,
             "max_ratio_ii": ratio_ii,
-            "t_norm_below_1e-3": first_time_below(t, norm, 1e-3),
+            "t_norm_below_1e-3": dense.settles_below(run, bound_i.norm, 1e-3, 0.0, T),
         }
-        for when in NORM_TIMES:
-            rows[f"norm_e_t{when:g}"] = at_time(t, norm, when)
+        norms = bound_i.norm(run.at(np.array([w for w in NORM_TIMES if w <= T])))
+        for k, when in enumerate(NORM_TIMES):
+            rows[f"norm_e_t{when:g}"] = float(norms[k]) if when <= T else math.nan
         for quantity, value in rows.items():
             out.rows.append({"observer": name, "quantity": quantity, "empirical": value})
         out.rows.append({"observer": name, "quantity": "max_V_over_bound_12",
@@ -228,6 +230,58 @@ class MorenoCertificate:
             Series(f"{base}/certificate", ["theta", "varrho", "eta", "V", "V_bound"],
                    np.column_stack([theta, varrho, eta, V, V_bound])),
         ]
+
+
+@dataclass(frozen=True)
+class _BoundI:
+    """The pointwise bound (i), V'/V + eps <= varrho of (9)-(11), as functions of sampled
+    signals (:mod:`hgo.postprocess.dense`): maxima over the run's steps, not its grid."""
+
+    pl: object
+    es: ErrorSystem
+    des: CertificateDesign
+    c: float
+    cols: tuple[int, int]
+    norm_floor: float
+
+    def _e(self, s: Trajectory) -> np.ndarray:  # x - x^ (the paper's sign)
+        return s.z[:, :self.pl.nx] - s.xh[:, self.cols[0]:self.cols[1]]
+
+    def norm(self, s: Trajectory) -> np.ndarray:
+        return np.linalg.norm(self._e(s), axis=1)
+
+    def theta(self, s: Trajectory) -> np.ndarray:  # (10), where ||e|| is above the floor
+        live = self.norm(s) > self.norm_floor
+        sigma = s.z[:, :self.pl.nx] @ self.pl.H
+        return (sector_lower(self.pl.psi_coeffs, sigma) - self.des.K1t)[live]
+
+    def _rate_theta(self, s: Trajectory) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(V'/V + eps, theta of (10), live: ||e|| above the floor) at the samples of s."""
+        e = self._e(s)
+        sigma = s.z[:, :self.pl.nx] @ self.pl.H
+        phi = self.pl.phi(e @ self.es.H_N, sigma)
+        V = 0.5 * np.einsum("ij,jk,ik->i", e, self.des.P, e)
+        Vdot = np.einsum("ij,jk,ik->i", e, self.des.P, self.es.rhs(e.T, phi).T)
+        live = np.linalg.norm(e, axis=1) > self.norm_floor
+        theta = sector_lower(self.pl.psi_coeffs, sigma) - self.des.K1t
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return Vdot / V + self.des.eps, theta, live
+
+    def rate(self, s: Trajectory) -> np.ndarray:
+        rate, _, live = self._rate_theta(s)
+        return rate[live]
+
+    def margin(self, s: Trajectory) -> np.ndarray:
+        """V'/V + eps - varrho, varrho = c max(0, -theta) (-inf below the norm floor)."""
+        rate, theta, live = self._rate_theta(s)
+        return np.where(live, rate - self.c * np.maximum(0.0, -theta), -np.inf)
+
+    def c_needed(self, s: Trajectory) -> np.ndarray:
+        """max(V'/V + eps, 0) / -theta where theta < 0: the least c for (i) there."""
+        rate, theta, live = self._rate_theta(s)
+        ok = live & (theta < 0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(ok, np.maximum(rate, 0.0) / -theta, -np.inf)
 
 
 def moreno_certificate(lambda_P: str = "half_min_eig", delta: float = 0.1,
