@@ -29,14 +29,17 @@ from __future__ import annotations
 
 import math
 import pickle
+import sys
 import threading
 import warnings
 from dataclasses import dataclass, replace
+from pathlib import Path
 
 import numpy as np
 
 from hgo.core.errors import ConfigError
 from hgo.engine.codegen import (
+    compiled_first,
     damaged_cache_file,
     forget_kernel,
     load_kernel,
@@ -87,6 +90,10 @@ class SolverSettings:
             value = getattr(self, key)
             if not (value > 0 and math.isfinite(value)):
                 raise ConfigError(f"solver.{key}", f"must be > 0 and finite, got {value}")
+        if not 1e-15 <= self.rtol < 1:
+            raise ConfigError("solver.rtol", f"must be in [1e-15, 1) (a relative error; "
+                              f"below 1e-15 it asks for more than double precision), got "
+                              f"{self.rtol}", "[1e-15, 1)")
         for key in ("h_max", "state_bound"):  # inf: no cap
             if not getattr(self, key) > 0:
                 raise ConfigError(f"solver.{key}", f"must be > 0, got {getattr(self, key)}",
@@ -220,6 +227,9 @@ def _kernel(system: System, method: str):
         return load_kernel(system, compiled=False, method=method)
 
 
+STOP_NOTICE_S = 0.5  # a kernel that has not stopped this long after Ctrl-C is compiling
+
+
 def _interruptible(fn, args: tuple, ctl: np.ndarray):
     """``fn(*args)`` in a worker thread; Ctrl-C in the main thread sets ``ctl[0]``, which the
     kernel checks after every step: it returns (status 6) within one step, and its
@@ -242,7 +252,11 @@ def _interruptible(fn, args: tuple, ctl: np.ndarray):
             pass
     except KeyboardInterrupt:
         ctl[0] = 1
-        done.wait()
+        if not done.wait(STOP_NOTICE_S):  # the kernel checks ctl each step: compiling
+            sys.stderr.write("interrupted: stopping once numba has compiled the kernel "
+                             "(Ctrl-C again to stop at once)\n")
+            sys.stderr.flush()
+            done.wait()
     if "error" in out:
         raise out["error"]
     return out["value"]
@@ -268,7 +282,7 @@ def _call_repairing_cache(system: System, method: str, module, fname: str, args:
     warned = False
     for _ in range(MAX_CACHE_REPAIRS):
         try:
-            return _interruptible(getattr(module, fname), args, args[-1])
+            return _interruptible(_first_compiled(module, fname), args, args[-1])
         except CACHE_ERRORS as err:
             damaged = damaged_cache_file(err)
             if damaged is None:
@@ -281,7 +295,13 @@ def _call_repairing_cache(system: System, method: str, module, fname: str, args:
             remove_cache_entry(damaged)
             forget_kernel(module)
             module = _kernel(system, method)
-    return _interruptible(getattr(module, fname), args, args[-1])
+    return _interruptible(_first_compiled(module, fname), args, args[-1])
+
+
+def _first_compiled(module, fname: str):
+    """The kernel function, compiled under its cache entry's lock on its first call
+    (:func:`hgo.engine.codegen.compiled_first`): no two processes compile it at once."""
+    return compiled_first(getattr(module, fname), Path(module.__file__))
 
 
 def _reason(message: str) -> str:

@@ -14,7 +14,10 @@
   (20), (23) (OCR fixes A7, A9: K_psi |theta|, sqrt(V) moved in (21)).
 
 The SDPs reuse the cvxpy + Clarabel set-up and the monotone bisection of
-:mod:`hgo.core.lmi` (shared with Sanfelice & Praly (8)-(10)).
+:mod:`hgo.core.lmi` (shared with Sanfelice & Praly (8)-(10)). cvxpy (~1 s to import) is
+imported by the first SDP solved, and :func:`check_conditions` and :func:`lmi28` are cached
+on disk by their inputs (:func:`hgo.core.memo.disk_cached`): a run or claim whose LMIs were
+solved before neither imports nor solves anything.
 """
 
 from __future__ import annotations
@@ -22,15 +25,26 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-import cvxpy as cp
 import numpy as np
 import scipy.linalg as sla
 
 from hgo.core.lmi import bisect, sym
+from hgo.core.memo import disk_cached
 from hgo.observers.adaptive_cascade import hgo_matrix
 
+if TYPE_CHECKING:
+    import cvxpy as cp
+
 SOLVER = "CLARABEL"
+
+
+def _cvxpy():
+    """cvxpy, imported by the first SDP that is solved (not by importing this module)."""
+    import cvxpy
+
+    return cvxpy
 
 
 @dataclass(frozen=True)
@@ -51,6 +65,7 @@ class ConditionCheck:
 def _solve(problem: cp.Problem) -> bool:
     """Solve; True when (nearly) optimal. Clarabel's "inaccurate" status at the edge of a
     bisection counts as feasible (its warning is silenced: r* is then within rtol)."""
+    cp = _cvxpy()
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)
@@ -60,6 +75,7 @@ def _solve(problem: cp.Problem) -> bool:
     return problem.status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE)
 
 
+@disk_cached
 def check_conditions(A, B, H, L, M=None, rtol: float = 1e-6) -> ConditionCheck:
     """r* = max over P (and M if None) of lambda_min(Q)/lambda_max(P) s.t. (8)-(9).
 
@@ -96,6 +112,7 @@ def _closed_loop_lmi(acl: np.ndarray, P, rhs):
 def _best_p_fixed(acl, B, H, M, alpha: float, rtol: float):
     """(P, M) maximising the ratio with M fixed (bisection, see check_conditions); None if
     infeasible."""
+    cp = _cvxpy()
     n = acl.shape[0]
     P = cp.Variable((n, n), symmetric=True)
     s = cp.Variable()
@@ -118,6 +135,7 @@ def _best_p_fixed(acl, B, H, M, alpha: float, rtol: float):
 def _best_p_free(acl, B, H):
     """(P, M) maximising the ratio with M free, P normalised to P <= I (one SDP); None
     if no P > 0 has Q > 0."""
+    cp = _cvxpy()
     n = acl.shape[0]
     P = cp.Variable((n, n), symmetric=True)
     r = cp.Variable()
@@ -141,8 +159,10 @@ class Lmi28:
     status: str
 
 
+@disk_cached
 def lmi28(A, B, H, L=None, M=None, p_min: float = 1.0, nu: float = 1e-3) -> Lmi28:
     """Dimassi et al. (28) (reconstructed, A6): minimise rho; L, M fixed when given."""
+    cp = _cvxpy()
     A, B, H = (np.asarray(v, float) for v in (A, B, H))
     n, m, nn = A.shape[0], B.shape[1], H.shape[0]
     P = cp.Variable((n, n), symmetric=True)
@@ -164,6 +184,7 @@ def lmi28(A, B, H, L=None, M=None, p_min: float = 1.0, nu: float = 1e-3) -> Lmi2
 
 def lmi_equality(A, B, H, L=None, M=None, nu: float = 1e-3) -> bool:
     """(8)-(9) with (9) as the equality B^T P == M H (P >= I if M is free, else >= 1e-6 I)."""
+    cp = _cvxpy()
     A, B, H = (np.asarray(v, float) for v in (A, B, H))
     n, m, nn = A.shape[0], B.shape[1], H.shape[0]
     P = cp.Variable((n, n), symmetric=True)
