@@ -193,9 +193,9 @@ class StepRecord:
         ny, nu = len(self.system.plant.output_names), len(self.system.plant.input_names)
         sysm = self.system
         t, *rec = _record_arrays(len(ts), (1, sysm.nz, sysm.nd, ny, ny, nu, sysm.nxh))
-        if "_module" not in self.__dict__:  # (loaded once: at() is called many times)
-            self._module = _kernel(sysm, self.method)
-        self._module.dense_signals(self.rows, len(self.rows), ts, self.P, *rec)
+        if "_signals" not in self.__dict__:  # (loaded once: at() is called many times)
+            self._signals = _first_compiled(_kernel(sysm, self.method), "dense_signals")
+        self._signals(self.rows, len(self.rows), ts, self.P, *rec)
         return Trajectory(ts, *rec, 0, float(ts[-1]) if len(ts) else 0.0,
                           np.full(sysm.n_acc(), np.nan))
 
