@@ -6,8 +6,9 @@ The functions here measure a scalar signal ``signal(traj) -> array`` (a function
 run's signals sampled at some instants, e.g. ``lambda s: s.xh[:, 1] - s.z[:, 1]``) over a
 window [a, b] from those steps only, so that the numbers do not move with ``dt_out``:
 
-* :func:`mean`, :func:`rms`, :func:`std`: 3-point Gauss-Legendre on each step's part of
-  the window (the rule the kernel's window metrics use, ``kernel_template._window_step``);
+* :func:`integral`, :func:`mean`, :func:`rms`, :func:`std`: 3-point Gauss-Legendre on
+  each step's part of the window (the rule the kernel's window metrics use,
+  ``kernel_template._window_step``), pieces halved where the halves disagree (kinks);
 * :func:`first_below`, :func:`settles_below`, :func:`fraction_above`: sign changes of
   ``signal - level`` between the scan points (step ends and the Gauss nodes of every
   step), each crossing located by bisection on the continuous extension (to 1e-12 s, all
@@ -37,6 +38,8 @@ Signal = Callable[[Trajectory], np.ndarray]
 NODES, WEIGHTS = np.polynomial.legendre.leggauss(3)  # on [-1, 1]
 NODES01, WEIGHTS01 = 0.5 * (NODES + 1.0), 0.5 * WEIGHTS  # on [0, 1]
 XTOL = 1e-12  # seconds: the crossing instants' tolerance
+QTOL = 1e-9  # signal units: a piece's quadrature is accepted when its halves agree to QTOL
+MAX_HALVINGS = 12
 
 
 class GridRun:
@@ -121,10 +124,43 @@ def _roots(run: DenseRun, signal: Signal, level: float, lo: np.ndarray,
     return 0.5 * (lo + hi)
 
 
-def mean(run: DenseRun, signal: Signal, a: float, b: float) -> float:
-    """(1 / (b - a)) int_a^b signal dt."""
+def _gauss_pieces(run: DenseRun, signal: Signal, lo: np.ndarray,
+                  width: np.ndarray) -> np.ndarray:
+    """3-point Gauss-Legendre integral of ``signal`` on each piece [lo, lo + width]."""
+    ts = (lo[:, None] + width[:, None] * NODES01[None, :]).ravel()
+    v = _values(run, signal, ts).reshape(lo.size, 3)
+    return width * (v @ WEIGHTS01)
+
+
+def integral(run: DenseRun, signal: Signal, a: float, b: float) -> float:
+    """int_a^b signal dt: 3-point Gauss-Legendre on each step's part of [a, b], each piece
+    halved until the halves agree with the whole to QTOL (signal units) times its length,
+    at most MAX_HALVINGS times: the signals have kinks inside steps (saturations of an
+    estimate), where one Gauss rule per step is off by O(h^2) of the slope's jump."""
     _, wts, s = _gauss(run, a, b)
-    return float(np.dot(wts, signal(s)) / (b - a))
+    edges = run.boundaries(a, b)
+    lo, width = edges[:-1], np.diff(edges)
+    whole = (np.asarray(signal(s), float).reshape(lo.size, 3) @ WEIGHTS01) * width
+    total = 0.0
+    for _ in range(MAX_HALVINGS):
+        half = 0.5 * width
+        left = _gauss_pieces(run, signal, lo, half)
+        right = _gauss_pieces(run, signal, lo + half, half)
+        split = left + right
+        done = np.abs(split - whole) <= QTOL * width
+        total += float(np.sum(split[done]))
+        if done.all():
+            return total
+        keep = ~done
+        lo = np.concatenate([lo[keep], lo[keep] + half[keep]])
+        width = np.concatenate([half[keep], half[keep]])
+        whole = np.concatenate([left[keep], right[keep]])
+    return total + float(np.sum(whole))
+
+
+def mean(run: DenseRun, signal: Signal, a: float, b: float) -> float:
+    """(1 / (b - a)) int_a^b signal dt (:func:`integral`)."""
+    return integral(run, signal, a, b) / (b - a)
 
 
 def rms(run: DenseRun, signal: Signal, a: float, b: float) -> float:
@@ -133,11 +169,9 @@ def rms(run: DenseRun, signal: Signal, a: float, b: float) -> float:
 
 
 def std(run: DenseRun, signal: Signal, a: float, b: float) -> float:
-    """The standard deviation over [a, b] in time: sqrt(mean(s^2) - mean(s)^2)."""
-    _, wts, s = _gauss(run, a, b)
-    v = np.asarray(signal(s), float)
-    m = np.dot(wts, v) / (b - a)
-    return math.sqrt(max(float(np.dot(wts, (v - m) ** 2) / (b - a)), 0.0))
+    """The standard deviation over [a, b] in time: sqrt(mean((s - mean s)^2))."""
+    m = mean(run, signal, a, b)
+    return math.sqrt(max(mean(run, lambda x: (signal(x) - m) ** 2, a, b), 0.0))
 
 
 def first_below(run: DenseRun, signal: Signal, level: float, a: float, b: float) -> float:

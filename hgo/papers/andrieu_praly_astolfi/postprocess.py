@@ -42,7 +42,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from hgo.engine.jit import kernel_helper
-from hgo.engine.simulate import Trajectory
+from hgo.engine.simulate import DenseRun, Trajectory
 from hgo.engine.system import System
 from hgo.observers import homogeneous_dynamic as hd
 from hgo.outputs.recording import Series
@@ -143,8 +143,8 @@ class APAMetrics:
         rates = {"true": _rates(traj, hbar)}
         hbar_o = None
         rows = []
-        for obs, (za, _), (xa, _) in zip(system.observers, system.z_slices[1:],
-                                         system.xh_slices, strict=True):
+        for k, (obs, (za, _), (xa, _)) in enumerate(zip(system.observers, system.z_slices[1:],
+                                                        system.xh_slices, strict=True)):
             if not is_apa_observer(obs):
                 continue
             if hbar_o is None:  # the observers' hbar_o (the first one's)
@@ -155,10 +155,12 @@ class APAMetrics:
             out.series += [Series(f"/observer/{obs.name}/Omega", ["Omega"], omega[:, None]),
                            Series(f"/observer/{obs.name}/e_x2", ["e_x2"],
                                   sig.e_x2(traj)[:, None])]
-            rows += self._observer_rows(obs, sig, run, traj.t_stop)
+            mine = run.observer(k) if isinstance(run, DenseRun) else run
+            rows += self._observer_rows(obs, sig, mine, traj.t_stop)
         rate_names = [f"df2dx2_{k}" for k in rates]
         out.series.append(Series(RATE, rate_names, np.column_stack(list(rates.values()))))
-        rows += self._plant_rows(run, traj.t_stop, hbar, hbar_o)
+        plant_run = run.observer(0) if isinstance(run, DenseRun) else run  # (part 0's plant)
+        rows += self._plant_rows(plant_run, traj.t_stop, hbar, hbar_o)
         out.rows = rows
         return out
 
