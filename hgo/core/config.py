@@ -198,8 +198,12 @@ def register_configs() -> None:
 
 
 def conf_dir() -> Path:
-    """The ``conf/`` directory of the repository hgo runs from."""
-    return Path(__file__).resolve().parents[2] / "conf"
+    """hgo's configuration: ``hgo/conf`` inside an installed wheel (setup.py ships the
+    repository's ``conf/`` there), else the ``conf/`` folder of the checkout hgo runs from
+    (an editable install or ``PYTHONPATH``)."""
+    package = Path(__file__).resolve().parents[1]  # hgo/
+    shipped = package / "conf"
+    return shipped if (shipped / "config.yaml").is_file() else package.parent / "conf"
 
 
 def groups(root: Path | None = None) -> dict[str, list[str]]:
@@ -229,9 +233,26 @@ def check_override_lengths(overrides: list[str]) -> None:
                               "folder given by hydra.searchpath)")
 
 
-def compose(overrides: list[str], out_dir: Path | None = None) -> DictConfig:
+def search_path_override(config_dir: str | Path | None) -> list[str]:
+    """The override adding a user's config folder to hgo's (as ``--config-dir`` does for
+    ``hgo run``): its groups and presets join hgo's; where both hold an option of the
+    same name, hgo's wins."""
+    if config_dir is None:
+        return []
+    path = Path(config_dir).resolve()
+    if not path.is_dir():
+        from hgo.core.errors import ConfigError
+
+        raise ConfigError("config_dir", f"'{path}' is not a directory")
+    return [f"hydra.searchpath=[file://{path}]"]
+
+
+def compose(overrides: list[str], out_dir: Path | None = None,
+            config_dir: str | Path | None = None) -> DictConfig:
     """Compose ``conf/config.yaml`` with ``overrides`` as ``experiments/run.py`` would
-    (Hydra's node included); with ``out_dir``, Hydra's run directory is set to it."""
+    (Hydra's node included); with ``out_dir``, Hydra's run directory is set to it; with
+    ``config_dir``, a user's config folder adds its groups and presets
+    (:func:`search_path_override`)."""
     from hydra import compose as hydra_compose
     from hydra import initialize_config_dir
     from hydra.core.global_hydra import GlobalHydra
@@ -240,6 +261,7 @@ def compose(overrides: list[str], out_dir: Path | None = None) -> DictConfig:
     check_override_lengths(overrides)
     register_configs()
     GlobalHydra.instance().clear()
+    overrides = [*search_path_override(config_dir), *overrides]
     with initialize_config_dir(version_base="1.3", config_dir=str(conf_dir())):
         cfg = hydra_compose("config", overrides=overrides, return_hydra_config=True)
     if out_dir is not None:

@@ -17,7 +17,12 @@ import errno
 import yaml
 
 
-class ConfigError(ValueError):
+class HgoError(Exception):
+    """What hgo's Python API (``hgo.api``) raises: the one line ``hgo run`` prints after
+    ``error:`` (the original exception is its ``__cause__``)."""
+
+
+class ConfigError(HgoError, ValueError):
     """A bad configuration value: ``key`` (full dotted key), ``problem``, ``allowed``."""
 
     def __init__(self, key: str, problem: str, allowed: str | None = None) -> None:

@@ -52,3 +52,13 @@ def bisect(pred: Callable[[float], bool], good: float, bad: float, rtol: float) 
         else:
             bad = mid
     return good
+
+
+class LazyCvxpy:
+    """cvxpy, imported by the first attribute looked up (``cp.Variable``): a module that
+    solves LMIs on demand does not pay cvxpy's ~1 s import when it is imported."""
+
+    def __getattr__(self, name: str):
+        import cvxpy
+
+        return getattr(cvxpy, name)

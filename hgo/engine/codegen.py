@@ -22,6 +22,8 @@ import os
 import sys
 import tempfile
 import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from types import ModuleType
 
@@ -355,6 +357,43 @@ def remove_cache_entry(index: Path) -> None:
     for entry in index.parent.glob(f"{stem}*"):
         if entry.suffix in (".nbi", ".nbc"):
             entry.unlink(missing_ok=True)
+
+
+@contextmanager
+def entry_lock(path: Path) -> Iterator[None]:
+    """An exclusive lock on the kernel-cache entry ``path`` (``<entry>.lock``, ``flock``):
+    of the processes that need the kernel at once, one compiles it and the others wait,
+    then load numba's cache of it. No lock where there is no ``fcntl`` or the cache
+    directory is read-only (each process compiles, as before)."""
+    try:
+        import fcntl
+
+        handle = open(path.with_suffix(".lock"), "a")  # noqa: SIM115 (held while compiling)
+    except (ImportError, OSError):
+        yield
+        return
+    with handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
+def compiled_first(fn, path: Path):
+    """``fn`` (a kernel function) that, on its first call in this process, compiles or
+    loads it from numba's cache under :func:`entry_lock` before running it: the lock is
+    held while compiling, never while integrating."""
+    if not hasattr(fn, "compile"):  # the pure-Python kernel
+        return fn
+
+    def call(*args):
+        if not fn.signatures:
+            with entry_lock(path):
+                fn.compile(tuple(fn.typeof_pyval(a) for a in args))
+        return fn(*args)
+
+    return call
 
 
 def forget_kernel(module: ModuleType) -> None:

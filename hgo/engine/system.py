@@ -148,5 +148,15 @@ class System:
                         if self.plant.output_state in est else -1)
         return np.array(cols, dtype=np.int64)
 
+    def breaks(self, P: np.ndarray, t_end: float) -> np.ndarray:
+        """The sorted instants in (0, t_end) where the plant or the controller declares a
+        jump (their ``breaks(p)`` hooks, with their slices of the parameter vector ``P``):
+        the integrators end a step at each one."""
+        parts = [(self.plant.breaks, self.p_slices[0])]
+        if self.controller is not None:
+            parts.append((self.controller.breaks, self.p_slices[-1]))
+        found = [float(b) for hook, (a, e) in parts if hook is not None for b in hook(P[a:e])]
+        return np.array(sorted({b for b in found if 0.0 < b < t_end}), float)
+
     def spectral_radius(self) -> float:
         return max([self.plant.spectral_radius] + [o.spectral_radius for o in self.observers])

@@ -9,9 +9,10 @@ Each paper package declares the runs that draw its figures (``PAPER_FIGURES`` in
 2. reuses a job's directory when it holds a finished run of the same composed config and the
    same code (the key hashes both), and a paper's claim results for the same code;
 3. writes ``outputs/reproduce/<date_time>/report.md`` and a self-contained ``report.html``
-   (figures embedded): a summary table (paper x verdicts, wall time, machine, hgo version
-   and commit), then per paper its figures with the paper's captions, the claims ledger and
-   the bound tables.
+   (figures embedded, each also as a PDF beside it): a table of contents, a summary table
+   (paper x verdicts, wall time, machine, hgo version and commit), then per paper its
+   figures with the paper's captions, its claims and its bounds
+   (:mod:`hgo.reproduce.report`).
 
 Job directories live under ``outputs/reproduce/runs/``, claim results under
 ``outputs/reproduce/claims/``.
@@ -36,16 +37,29 @@ from pathlib import Path
 from hgo.core.registry import PAPERS_PACKAGE, PaperFigure, paper_names
 
 ROOT = Path(__file__).resolve().parents[2]
+VECTOR = "pdf"  # every figure also as a vector file (figures.vector)
 
 
 # ------------------------------------------------------------------------------ keys
 
 
+# files that only render the report (always written again): not part of the results' key
+REPORT_ONLY = ("hgo/reproduce/report.py", "hgo/reproduce/notation.py")
+
+
 def code_fingerprint() -> str:
-    """Hash of hgo's sources and configs: a change to either invalidates every result."""
+    """Hash of hgo's sources and configs: a change to either invalidates every result (a
+    change to the report's rendering, :data:`REPORT_ONLY` and its templates, does not)."""
+    from hgo.core.config import conf_dir
+
     h = hashlib.sha256()
-    for path in sorted([*(ROOT / "hgo").rglob("*.py"), *(ROOT / "conf").rglob("*.yaml")]):
-        h.update(str(path.relative_to(ROOT)).encode())
+    conf = conf_dir()  # the checkout's conf/ or the wheel's hgo/conf: named alike
+    files = [(p.relative_to(ROOT).as_posix(), p) for p in (ROOT / "hgo").rglob("*.py")]
+    files += [("conf/" + p.relative_to(conf).as_posix(), p) for p in conf.rglob("*.yaml")]
+    for name, path in sorted(files):
+        if name in REPORT_ONLY:
+            continue
+        h.update(name.encode())
         h.update(path.read_bytes())
     return h.hexdigest()[:16]
 
@@ -143,7 +157,7 @@ def plan_jobs(papers: list[str], runs_dir: Path, fingerprint: str) -> list[Job]:
     jobs = []
     for paper in papers:
         for fig in paper_figures(paper):
-            all_overrides = fig.jobs()
+            all_overrides = [(*o, f"figures.vector={VECTOR}") for o in fig.jobs()]
             keys = [job_key(o, fingerprint) for o in all_overrides]
             if fig.sweep:  # one sweep directory per set of jobs, job<i> inside
                 sweep = runs_dir / fig.preset / hashlib.sha256("".join(keys).encode()
@@ -242,7 +256,10 @@ def _combine(plan: list[Job]) -> None:
         if stamp.exists() and json.loads(stamp.read_text()) == keys:
             continue
         try:
-            fig.combine(sweep)
+            from hgo.outputs.figures import also_saved_as
+
+            with also_saved_as(VECTOR):
+                fig.combine(sweep)
             stamp.write_text(json.dumps(keys))
         except Exception as err:
             print(f"reproduce: combining {sweep} failed: {err!r}", file=sys.stderr)

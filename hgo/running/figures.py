@@ -18,16 +18,21 @@ from hgo.core.errors import ConfigError
 if TYPE_CHECKING:
     from hgo.running.results import RunResult
 
-FIGURE_SETTINGS = ("format", "dpi")  # keys of the ``figures`` node that are not figures
+FIGURE_SETTINGS = ("format", "dpi", "vector")  # keys of ``figures`` that are not figures
 FORMATS = ("png", "pdf", "svg")  # of ``figures.format``
+VECTOR_FORMATS = ("pdf", "svg")  # of ``figures.vector``
 
 
 def figure_settings(cfg: DictConfig) -> tuple[str, float]:
-    """``figures.format`` and ``figures.dpi``, checked (before any integration)."""
+    """``figures.format`` and ``figures.dpi``, checked with ``figures.vector`` (before
+    any integration)."""
     node = cfg.get("figures") or {}
     fmt, dpi = node.get("format", "png"), node.get("dpi", 110)
     if fmt not in FORMATS:
         raise ValueError(f"figures.format: '{fmt}' not in {list(FORMATS)}")
+    vector = node.get("vector")
+    if vector is not None and vector not in VECTOR_FORMATS:
+        raise ValueError(f"figures.vector: '{vector}' not in {list(VECTOR_FORMATS)} or null")
     if not (isinstance(dpi, int | float) and 10 <= dpi <= 1200):
         raise ValueError(f"figures.dpi must be a number in [10, 1200], got {dpi}")
     return fmt, float(dpi)
@@ -80,16 +85,18 @@ def check_figures(cfg: DictConfig) -> None:
 
 def draw_figures(cfg: DictConfig, result: RunResult) -> list[Path]:
     """Figures of the ``figures`` mapping (name -> ``_target_`` taking the result and a
-    path), written as ``<name>.<figures.format>`` at ``figures.dpi``."""
+    path), written as ``<name>.<figures.format>`` at ``figures.dpi`` (and also as
+    ``<name>.<figures.vector>`` when set)."""
     import matplotlib.pyplot as plt
 
-    import hgo.outputs.figures  # noqa: F401  (hgo's style and the Agg backend)
+    from hgo.outputs.figures import also_saved_as  # (and hgo's style, the Agg backend)
 
     fmt, dpi = figure_settings(cfg)
+    vector = (cfg.get("figures") or {}).get("vector")
     paths = []
     for name, node in figure_nodes(cfg).items():
         path = result.out_dir / f"{name}.{fmt}"
-        with plt.rc_context({"savefig.dpi": dpi, "figure.dpi": dpi}):  # (see figures.STYLE)
-            instantiate(node, _partial_=True)(result, path)
+        with plt.rc_context({"savefig.dpi": dpi, "figure.dpi": dpi}), also_saved_as(vector):
+            instantiate(node, _partial_=True)(result, path)  # (rc: see figures.STYLE)
         paths.append(path)
     return paths

@@ -53,7 +53,8 @@ log = logging.getLogger(__name__)
 
 
 class SimulationFailed(RuntimeError):
-    """A run stopped early; its outputs up to the stop time are written."""
+    """A run stopped early; its outputs up to the stop time are written (``result``: the
+    :class:`RunResult` of what was computed)."""
 
 
 class RunInterrupted(KeyboardInterrupt):
@@ -402,7 +403,9 @@ def run(cfg: DictConfig, out_dir: str | Path, figures: FigureWorker | None = Non
     if not traj.ok:
         track(cfg, out_dir, started, f"{status_word(traj.status)}: {traj.message}",
               result.timings, table)
-        raise (RunInterrupted if traj.status == INTERRUPTED else SimulationFailed)(stopped)
+        err = (RunInterrupted if traj.status == INTERRUPTED else SimulationFailed)(stopped)
+        err.result = result  # what was written, for hgo.api.run
+        raise err
     if figures is not None:
         figures.collect()
     else:
