@@ -502,3 +502,14 @@ def test_a_long_override_is_refused_before_hydra_parses_it(tmp_path):
     assert done.returncode == 2
     assert done.stderr.startswith("error: plant.x0: the override is 80,010 characters "
                                   "(~20,000 values), over 20,000") and done.stderr.count("\n") == 1
+
+
+def test_view_skips_a_file_that_is_not_a_recording(runs_root, capsys):
+    """``hgo view`` handed a foreign file to the viewer; now one line each, the others go
+    on (``--print-command``: the viewer is not started)."""
+    code, out, err = _hgo(capsys, "view", "notrrd.rrd", "outputs/good", "--print-command")
+    assert code == 0 and out.strip().splitlines()[-1].endswith(" outputs/good/recording.rrd")
+    assert err == "skipped: notrrd.rrd: not a Rerun recording (unreadable or another file)\n"
+    code, _, err = _hgo(capsys, "view", "notrrd.rrd")
+    assert code == 2 and err.strip().splitlines()[-1] == (
+        "error: no readable recording among notrrd.rrd")
