@@ -1,14 +1,12 @@
-"""Write the generated reference pages of the documentation:
-
-    python docs/gen_reference.py
+"""Write the generated reference pages of the documentation (mkdocs runs this before every
+build through ``docs/hooks.py``; by hand: ``python docs/gen_reference.py``):
 
 * ``reference/cli.md``: every ``hgo`` command's ``--help``;
 * ``reference/configuration.md``: every schema (key, type, default, its docstring), every
   option of every config group (its description, schema and the values it sets) and every
   experiment preset.
 
-``tests/test_docs.py`` checks the committed pages equal what this writes (the reference
-cannot drift from the code); mkdocs itself runs no code.
+The pages are not committed (``.gitignore``): they cannot drift from the code.
 """
 
 from __future__ import annotations
@@ -241,12 +239,22 @@ PAGES: dict[str, Callable[[], str]] = {
 }
 
 
-def main() -> None:
+def write_pages() -> list[Path]:
+    """Write every generated page whose text changed; the pages written."""
+    written = []
     for path, make in PAGES.items():
         target = DOCS / path
-        target.parent.mkdir(parents=True, exist_ok=True)
-        target.write_text(make())
-        print(f"wrote docs/{path}")
+        text = make()
+        if not target.is_file() or target.read_text() != text:
+            target.parent.mkdir(parents=True, exist_ok=True)
+            target.write_text(text)
+            written.append(target)
+    return written
+
+
+def main() -> None:
+    for target in write_pages():
+        print(f"wrote {target.relative_to(ROOT)}")
 
 
 if __name__ == "__main__":

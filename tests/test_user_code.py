@@ -102,6 +102,7 @@ def test_list_shows_the_users_groups_and_presets(project):
 def test_compose_with_config_dir(project, monkeypatch):
     monkeypatch.chdir(project)
     monkeypatch.syspath_prepend(str(project))
+    monkeypatch.delitem(sys.modules, "vdp", raising=False)  # restored (absent) afterwards
     cfg = hgo.compose(["experiment=vdp_demo"], config_dir=project / "mine")
     assert cfg.plant._target_ == "vdp.make_vdp" and cfg.solver.t_end == 4.0
     result = hgo.run(cfg)
