@@ -87,6 +87,8 @@ CORPUS: list[tuple[tuple[str, ...], str]] = [
     ((SP, "+recording.foo=1"), "recording.foo: is not a key of recording"),
     ((ENS, "+ensemble.foo=1"), "ensemble.foo: is not a key of ensemble"),
     ((SP, "+figures.foo=1"), "figures.foo: must be a figure node with a _target_"),
+    ((SP, "+foo=1"), "foo: is not a key hgo reads, and nothing in the config interpolates it"),
+    ((SP, "+sed=3"), "sed: is not a key hgo reads"),
     ((SP, "+figures.fig1.bogus=1"), "figures.fig1.bogus: is not a parameter of "
                                     "hgo.papers.sanfelice_praly.figures.fig1"),
     # tolerances and physical parameters in range
@@ -148,7 +150,9 @@ CORPUS: list[tuple[tuple[str, ...], str]] = [
 
 def test_cleared_vary_and_the_last_shard_are_accepted():
     """What the refusals point to works: ``ensemble.vary=null`` clears the preset's vary;
-    shard 2/3 of 3 members is one member."""
+    shard 2/3 of 3 members is one member; a top-level helper key that an entry
+    interpolates stays allowed (``readings`` of apa_fig2)."""
+    assert _config_line((SP, "+helper=3", "++seed=${helper}")) == "(accepted)"
     assert _config_line((ENS, "ensemble.vary=null", "ensemble.size=2")) == "(accepted)"
     assert _config_line((GRID, "ensemble.shard=2/3")) == "(accepted)"
 
