@@ -85,7 +85,8 @@ def test_a_run_that_stops_early_is_returned_with_its_status(tmp_path):
 @pytest.mark.parametrize(("overrides", "line"), [
     (["plant.nu3=1"], "plant.nu3: Key 'nu3' not in 'SPLinearPlantConf'"),
     (["plant=pendulum"], "plant: unknown option 'pendulum' (allowed: "),
-    (["experiment=sp_fig1", "solver.t_end=5"], "metrics.window: must be in [0, solver.t_end"),
+    (["experiment=sp_fig1", "solver.t_end=5", "metrics.window=25"],
+     "metrics.window: must be in [0, solver.t_end"),
 ])
 def test_errors_are_hgo_errors_with_the_cli_line(overrides, line):
     with pytest.raises(hgo.HgoError) as caught:

@@ -86,10 +86,6 @@ class SolverSettings:
             value = getattr(self, key)
             if not (value > 0 and math.isfinite(value)):
                 raise ConfigError(f"solver.{key}", f"must be > 0 and finite, got {value}")
-        if not 1e-15 <= self.rtol < 1:
-            raise ConfigError("solver.rtol", f"must be in [1e-15, 1) (a relative error; "
-                              f"below 1e-15 it asks for more than double precision), got "
-                              f"{self.rtol}", "[1e-15, 1)")
         for key in ("h_max", "state_bound"):  # inf: no cap
             if not getattr(self, key) > 0:
                 raise ConfigError(f"solver.{key}", f"must be > 0, got {getattr(self, key)}",

@@ -28,7 +28,7 @@ from pathlib import Path
 
 import matplotlib
 import numpy as np
-from cycler import cycler
+from matplotlib import cycler  # (matplotlib re-exports it: no extra dependency)
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -247,7 +247,7 @@ def split_rows(n_rows: int, height: float = 2.3):
     """A figure of ``n_rows`` rows of (transient, rest) axes pairs for :func:`split_time`,
     the transient a quarter of the width."""
     return plt.subplots(n_rows, 2, figsize=(11, height * n_rows + 0.6), squeeze=False,
-                        gridspec_kw={"width_ratios": [1, 3], "wspace": 0.04})
+                        gridspec_kw={"width_ratios": [1, 3]})
 
 
 def split_time(ax_early, ax_late, split: float, t_end: float, t_start: float = 0.0,

@@ -179,6 +179,12 @@ def solver_settings(cfg: DictConfig) -> SolverSettings:
         max_output_rows=s.get("max_output_rows", 10 ** 8),
         split_observers=s.get("split_observers", False))
     settings.validate()
+    # a configured run asks for an error control; the engine's API also takes rtol >= 1
+    # (every step accepted: fixed steps h_max, as tests/test_engine.py's order test does)
+    if not 1e-15 <= settings.rtol < 1:
+        raise ConfigError("solver.rtol", f"must be in [1e-15, 1) (a relative error; below "
+                          f"1e-15 it asks for more than double precision), got "
+                          f"{settings.rtol}", "[1e-15, 1)")
     return settings
 
 

@@ -65,7 +65,7 @@ def _with_inset(path, title, t, curves, ylabel, span=INSET_TRANSIENT, inset_t=No
     ``inset_t``/``inset_curves`` when given: a finer grid) and ``[span, t_end]``, each
     part at the y-range of its own data: no zoom sits on the data, nothing is clipped."""
     fig, (early, late) = plt.subplots(1, 2, figsize=(10, 3.9),
-                                      gridspec_kw={"width_ratios": [1, 3], "wspace": 0.04})
+                                      gridspec_kw={"width_ratios": [1, 3]})
     ti = t if inset_t is None else inset_t
     for values, style, label in (curves if inset_curves is None else inset_curves):
         plot_line(early, ti, values, window=(0.0, span), label=label, **STYLES[style])
