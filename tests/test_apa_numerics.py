@@ -80,8 +80,10 @@ def test_discontinuity_at_a_segment_end_with_tight_tolerance_terminates():
     end forever. It must finish (status ok) and agree with the 1e-8 run. (The switch is now
     a declared break point, so that step no longer sees it; the undeclared case:
     tests/test_breakpoints.py::test_undeclared_jump_at_a_segment_end_terminates.)"""
-    tight = run_in_memory(("experiment=apa_fig2", "solver.t_end=21", "metrics.window=1",
+    tight = run_in_memory(("experiment=apa_fig2", "postprocess=none", "solver.t_end=21",
+                           "metrics.window=1",
                            "solver.rtol=1e-11", "solver.atol=1e-13"))
-    base = run_in_memory(("experiment=apa_fig2", "solver.t_end=21", "metrics.window=1"))
+    base = run_in_memory(("experiment=apa_fig2", "postprocess=none", "solver.t_end=21",
+                          "metrics.window=1"))
     assert tight.trajectory.ok and tight.trajectory.t_stop == 21.0
     assert np.abs(tight.trajectory.z - base.trajectory.z).max() < 1e-3
