@@ -9,6 +9,8 @@ window [a, b] from those steps only, so that the numbers do not move with ``dt_o
 * :func:`integral`, :func:`mean`, :func:`rms`, :func:`std`: 3-point Gauss-Legendre on
   each step's part of the window (the rule the kernel's window metrics use,
   ``kernel_template._window_step``), pieces halved where the halves disagree (kinks);
+  :class:`Cumulative` (the integral up to any instant) by the same rule, and on it
+  :func:`window_mean_max` (the largest sliding-window mean) and :func:`max_rise`;
 * :func:`first_below`, :func:`settles_below`, :func:`fraction_above`: sign changes of
   ``signal - level`` between the scan points (step ends and the Gauss nodes of every
   step), each crossing located by bisection on the continuous extension (to 1e-12 s, all
@@ -144,34 +146,123 @@ def _gauss_pieces(run: DenseRun, signal: Signal, lo: np.ndarray,
     return width * (v @ WEIGHTS01)
 
 
-def integral(run: DenseRun, signal: Signal, a: float, b: float) -> float:
-    """int_a^b signal dt: 3-point Gauss-Legendre on each step's part of [a, b], each piece
-    halved until the halves agree with the whole to QTOL (signal units) times its length,
-    at most MAX_HALVINGS times: the signals have kinks inside steps (saturations of an
-    estimate), where one Gauss rule per step is off by O(h^2) of the slope's jump."""
-    _, wts, s = _gauss(run, a, b)
-    edges = run.boundaries(a, b)
-    lo, width = edges[:-1], np.diff(edges)
-    whole = (np.asarray(signal(s), float).reshape(lo.size, 3) @ WEIGHTS01) * width
-    total = 0.0
+def _refine(run: DenseRun, signal: Signal, lo: np.ndarray, width: np.ndarray,
+            whole: np.ndarray, halves: tuple[Trajectory, Trajectory] | None = None
+            ) -> np.ndarray:
+    """The integral of ``signal`` on each piece [lo, lo + width] whose one-rule value is
+    ``whole``: each piece halved until its halves agree with it to QTOL (signal units)
+    times its length, at most MAX_HALVINGS times (``halves``: the signals at the Gauss
+    nodes of the first halves, already sampled)."""
+    out = np.zeros(lo.size)
+    owner = np.arange(lo.size)  # the piece each sub-piece belongs to
     for level in range(MAX_HALVINGS):
+        if not lo.size:
+            return out
         half = 0.5 * width
-        if level == 0:  # every step's halves: sampled once for all signals of the window
+        if level == 0 and halves is not None:
             left, right = ((np.asarray(signal(h), float).reshape(lo.size, 3) @ WEIGHTS01)
-                           * half for h in _halves(run, a, b))
+                           * half for h in halves)
         else:
             left = _gauss_pieces(run, signal, lo, half)
             right = _gauss_pieces(run, signal, lo + half, half)
         split = left + right
         done = np.abs(split - whole) <= QTOL * width
-        total += float(np.sum(split[done]))
-        if done.all():
-            return total
+        np.add.at(out, owner[done], split[done])
         keep = ~done
         lo = np.concatenate([lo[keep], lo[keep] + half[keep]])
         width = np.concatenate([half[keep], half[keep]])
         whole = np.concatenate([left[keep], right[keep]])
-    return total + float(np.sum(whole))
+        owner = np.concatenate([owner[keep], owner[keep]])
+    np.add.at(out, owner, whole)
+    return out
+
+
+def integral(run: DenseRun, signal: Signal, a: float, b: float) -> float:
+    """int_a^b signal dt: 3-point Gauss-Legendre on each step's part of [a, b], each piece
+    halved until the halves agree with the whole to QTOL (signal units) times its length,
+    at most MAX_HALVINGS times: the signals have kinks inside steps (saturations of an
+    estimate), where one Gauss rule per step is off by O(h^2) of the slope's jump."""
+    _, _, s = _gauss(run, a, b)
+    edges = run.boundaries(a, b)
+    lo, width = edges[:-1], np.diff(edges)
+    whole = (np.asarray(signal(s), float).reshape(lo.size, 3) @ WEIGHTS01) * width
+    # every step's halves: sampled once for all signals of the window
+    return float(np.sum(_refine(run, signal, lo, width, whole, _halves(run, a, b))))
+
+
+class Cumulative:
+    """I(t) = int_a^t signal for any t in [a, b], from the steps: :func:`integral`'s rule on
+    every step's part of [a, b] (summed into I at the step ends), plus the same rule on
+    [last step end, t] (a piece of one step: the extension is smooth there but for kinks,
+    which the halving resolves). Each value is the integral to about QTOL (b - a), for any
+    t, whatever the output grid."""
+
+    def __init__(self, run: DenseRun, signal: Signal, a: float, b: float) -> None:
+        self.run, self.signal, self.a, self.b = run, signal, float(a), float(b)
+        self.edges = run.boundaries(a, b)
+        lo, width = self.edges[:-1], np.diff(self.edges)
+        pieces = _refine(run, signal, lo, width, _gauss_pieces(run, signal, lo, width))
+        self.at_edges = np.concatenate([[0.0], np.cumsum(pieces)])
+
+    def __call__(self, ts: np.ndarray) -> np.ndarray:
+        ts = np.clip(np.atleast_1d(np.asarray(ts, float)), self.a, self.b)
+        k = np.clip(np.searchsorted(self.edges, ts, side="right") - 1, 0,
+                    self.edges.size - 2)
+        lo, width = self.edges[k], ts - self.edges[k]
+        part = _refine(self.run, self.signal, lo, width,
+                       _gauss_pieces(self.run, self.signal, lo, width))
+        return self.at_edges[k] + part
+
+
+class _Pair:
+    """The run seen at (t, t + shift) at once: ``at(ts)`` gives both samples."""
+
+    def __init__(self, run: DenseRun, shift: float) -> None:
+        self.run, self.shift = run, shift
+
+    def at(self, ts: np.ndarray) -> tuple[Trajectory, Trajectory]:
+        return self.run.at(ts), self.run.at(ts + self.shift)
+
+
+def window_mean_max(cum: Cumulative, window: float, a: float, b: float
+                    ) -> tuple[float, float]:
+    """(max over s in [a, b] of m(s) = (I(s + window) - I(s)) / window, its s), I = ``cum``
+    (b + window <= cum.b). m' = (signal(s + window) - signal(s)) / window: between the
+    points where s or s + window is a step end, both ends move inside one step each, so
+    m is as smooth as the extension. m is evaluated (exactly, :class:`Cumulative`) at
+    those points and at the Gauss nodes between them, and at every interior maximum:
+    each sign change of m' from + to - located by bisection to XTOL. A maximum is
+    missed only where m' goes + - + - between two scan points (as for crossings)."""
+    ends = cum.edges
+    inner = np.concatenate([ends, ends - window])
+    cand = np.unique(np.concatenate([[a, b], inner[(inner > a) & (inner < b)]]))
+    lo, width = cand[:-1], np.diff(cand)
+    scan = np.union1d(cand, (lo[:, None] + width[:, None] * NODES01[None, :]).ravel())
+    pair = _Pair(cum.run, window)
+
+    def slope(p: tuple[Trajectory, Trajectory]) -> np.ndarray:
+        return np.asarray(cum.signal(p[1]), float) - np.asarray(cum.signal(p[0]), float)
+
+    g = _values(pair, slope, scan)
+    k = np.flatnonzero((g[:-1] > 0) & (g[1:] <= 0))
+    points = np.concatenate([scan, _roots(pair, slope, 0.0, scan[k], scan[k + 1])])
+    means = (cum(points + window) - cum(points)) / window
+    best = int(np.argmax(means))
+    return float(means[best]), float(points[best])
+
+
+def max_rise(cum: Cumulative, level: float, a: float, b: float) -> float:
+    """max over a <= s <= t <= b of int_s^t (signal - level) = I(t) - I(s) - level (t - s),
+    I = ``cum``: J = I - level t is monotone between the crossings of ``level`` by the
+    signal, so its largest rise is that of its values at the scan points of [a, b] and
+    those crossings (located by bisection to XTOL), evaluated exactly."""
+    ts, s = _scan(cum.run, a, b)
+    v = np.asarray(cum.signal(s), float) - level
+    k = np.flatnonzero(np.sign(v[:-1]) != np.sign(v[1:]))
+    points = np.sort(np.concatenate([ts, _roots(cum.run, cum.signal, level, ts[k],
+                                                ts[k + 1])]))
+    J = cum(points) - level * points
+    return float(np.max(J - np.minimum.accumulate(J)))
 
 
 def mean(run: DenseRun, signal: Signal, a: float, b: float) -> float:

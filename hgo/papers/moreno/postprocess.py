@@ -4,11 +4,12 @@ For every circle-criterion observer (:mod:`hgo.observers.circle_criterion`) of t
 
 1. Design data (:func:`hgo.papers.moreno.theory.certificate_design`): K1^a (SDP), K~1,
    eps = f eps_max(K~1), P = argmax lambda_min(P), c of (11) (``lambda_P``).
-2. Along the run: the certificate integrals (12)-(14) and Remark 6 are trapezoids on the
-   output grid (a cumulative integral and its sliding-window maxima; 5e-3 / 1e-3 / 1e-4 s
-   grids agree to 1.6e-5 relative); the bound (i) (``margin_i``, ``c_need``), the
-   settling time and the norms at given instants are measured on the integration's steps
-   and their continuous extension (:mod:`hgo.postprocess.dense`), not the grid:
+2. Along the run, every row is measured on the integration's steps and their continuous
+   extension (:mod:`hgo.postprocess.dense`), not the output grid: the certificate
+   integrals (12)-(14) and Remark 6 from I(t) = int_0^t varrho by the steps' Gauss rule
+   (:class:`dense.Cumulative`, exact to ~1e-9 t_f at any instant) and its sliding-window
+   maximum (:func:`windowed_alpha`), the bound (i) (``margin_i``, ``c_need``), the
+   settling time and the norms at given instants (the series stay on the grid):
    sigma = H x, e = x - x^ (the paper's sign), z = H_N e, phi = psi(sigma) - psi(sigma - z),
    psi^ = psi(H x^ + N (y - C x^)), theta(sigma) = K1(sigma) - K~1 (10),
    varrho = c max(0, -theta) (11), I(t) = int_0^t varrho, eta(t, 0) = eps t - I(t) (12),
@@ -31,7 +32,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.integrate import cumulative_trapezoid
 
 from hgo.controllers.profile_input import input_period
 from hgo.engine.simulate import Trajectory
@@ -81,40 +81,40 @@ class Certificate:
     mean_varrho: float
 
 
-def windowed_alpha(t: np.ndarray, cum: np.ndarray, window: float) -> tuple[float, float]:
-    """Remark 6.3 from cum = I(t) = int_0^t varrho: alpha1 = max over t >= T of
-    (I(t + Delta) - I(t)) / Delta, T = t_f/2 - Delta, and gamma = max_t [J(t) - min_{s <= t}
-    J(s)], J = I - alpha1 t (the least gamma with int_{t0}^{t} varrho <= alpha1 (t - t0) +
-    gamma on the run)."""
-    t_f = t[-1]
+def windowed_alpha(cum: dense.Cumulative, window: float) -> tuple[float, float]:
+    """Remark 6.3 from cum = I(t) = int_0^t varrho on [0, t_f] (from the steps): alpha1 =
+    max over s in [t_f/2 - Delta, t_f - Delta] of (I(s + Delta) - I(s)) / Delta
+    (:func:`dense.window_mean_max`: I exact at any instant, every interior maximum located
+    where varrho(s + Delta) = varrho(s)), and gamma = max_t [J(t) - min_{s <= t} J(s)],
+    J = I - alpha1 t (the least gamma with int_{t0}^{t} varrho <= alpha1 (t - t0) + gamma
+    on the run; :func:`dense.max_rise`, J's extremes where varrho crosses alpha1). Both
+    are the run's values to about QTOL t_f, whatever the output grid."""
+    t_f = cum.b
     if window >= t_f:
         raise ValueError(f"postprocess.moreno.window ({window}) must be < t_end ({t_f})")
-    starts = t[(t >= t_f / 2 - window) & (t <= t_f - window)]
-    means = (np.interp(starts + window, t, cum) - np.interp(starts, t, cum)) / window
-    alpha1 = float(np.max(means))
-    J = cum - alpha1 * t
-    gamma = float(np.max(J - np.minimum.accumulate(J)))
-    return alpha1, gamma
+    alpha1, _ = dense.window_mean_max(cum, window, max(t_f / 2 - window, 0.0), t_f - window)
+    return alpha1, dense.max_rise(cum, alpha1, 0.0, t_f)
 
 
-def certificate(t: np.ndarray, varrho: np.ndarray, eps: float, window: float,
-                kappa: float, e0: float) -> tuple[Certificate, np.ndarray, np.ndarray]:
-    """(Certificate, I(t) = int_0^t varrho, eta(t, 0)) for varrho sampled on t."""
-    cum = cumulative_trapezoid(varrho, t, initial=0.0)
-    eta = eps * t - cum
-    half = np.searchsorted(t, t[-1] / 2)
-    tail = (eta[-1] - eta[half]) / (t[-1] - t[half])
-    alpha1, gamma = windowed_alpha(t, cum, window)
+def certificate(cum: dense.Cumulative, eps: float, window: float, kappa: float, e0: float
+                ) -> Certificate:
+    """Moreno (12)-(14), Remark 6 from cum = I(t) = int_0^t varrho on [0, t_f], measured on
+    the steps (:class:`dense.Cumulative`): eta(t) = eps t - I(t) at t_f and t_f/2, the
+    windowed maxima, I(t_f) and I(3 t_f/4), the maximum of varrho over [3 t_f/4, t_f]."""
+    t_f = cum.b
+    I_half, I_q, I_f = cum(np.array([0.5, 0.75, 1.0]) * t_f)
+    eta_end = eps * t_f - I_f
+    tail = eps - (I_f - I_half) / (t_f / 2)
+    alpha1, gamma = windowed_alpha(cum, window)
     holds14 = alpha1 < eps
     # ||e|| <= kappa e^{gamma/2} e^{-(eps - alpha1) t / 2} ||e0|| reaches 1e-3 at
     t_bound = (2 * (math.log(kappa * e0 / 1e-3) + gamma / 2) / (eps - alpha1)
                if holds14 and e0 > 0 else math.nan)
-    q = np.searchsorted(t, 0.75 * t[-1])
-    cert = Certificate(float(eta[-1]), float(tail), alpha1, bool(holds14), gamma,
+    max_q = dense.maximum(cum.run, cum.signal, 0.75 * t_f, t_f)[0]
+    return Certificate(float(eta_end), float(tail), alpha1, bool(holds14), gamma,
                        max(t_bound, 0.0) if math.isfinite(t_bound) else math.nan,
-                       float(cum[-1]), bool(cum[-1] - cum[q] <= 1e-9 * max(1.0, cum[-1])),
-                       float(np.max(varrho[q:])), float(np.mean(varrho)))
-    return cert, cum, eta
+                       float(I_f), bool(I_f - I_q <= 1e-9 * max(1.0, I_f)),
+                       float(max_q), float(I_f / t_f))
 
 
 @dataclass
@@ -180,8 +180,10 @@ class MorenoCertificate:
         x = traj.z[:, :pl.nx]
         sigma = x @ pl.H
         es, des = self.design(obs)
+        run, T = steps_of(traj), traj.t_stop
         if self.K1t_search:
-            K1t, _, _ = best_K1t(es, des.K1a, t, sigma, pl.psi_coeffs, window)
+            K1t, _, _ = best_K1t(es, des.K1a, run, lambda s: s.z[:, :pl.nx] @ pl.H,
+                                 pl.psi_coeffs, window, T)
             es, des = self.design(obs, K1t)
         c = des.c(self.lambda_P, es)
         e = x - xh
@@ -191,11 +193,12 @@ class MorenoCertificate:
         theta = sector_lower(pl.psi_coeffs, sigma) - des.K1t
         varrho = c * np.maximum(0.0, -theta)
         norm = np.linalg.norm(e, axis=1)
-        cert, _, eta = certificate(t, varrho, des.eps, window, des.kappa, norm[0])
+        bound_i = _BoundI(pl, es, des, c, cols, self.norm_floor)
+        cum = dense.Cumulative(run, bound_i.varrho, 0.0, T)  # I(t) of (12), from the steps
+        cert = certificate(cum, des.eps, window, des.kappa, norm[0])
+        eta = des.eps * t - cum(t)
         V = 0.5 * np.einsum("ij,jk,ik->i", e, des.P, e)
         V_bound = np.exp(-eta) * V[0]
-        bound_i = _BoundI(pl, es, des, c, cols, self.norm_floor)
-        run, T = steps_of(traj), traj.t_stop
         margin_i = dense.maximum(run, bound_i.margin, 0.0, T)[0]
         margin_i = margin_i if math.isfinite(margin_i) else math.nan  # (never live)
         c_need = max(dense.maximum(run, bound_i.c_needed, 0.0, T)[0], 0.0)
@@ -270,6 +273,10 @@ class _BoundI:
         with np.errstate(divide="ignore", invalid="ignore"):
             return Vdot / V + self.des.eps, theta, live
 
+    def varrho(self, s: Trajectory) -> np.ndarray:  # (11): c max(0, -theta), every sample
+        sigma = s.z[:, :self.pl.nx] @ self.pl.H
+        return self.c * np.maximum(0.0, self.des.K1t - sector_lower(self.pl.psi_coeffs, sigma))
+
     def rate(self, s: Trajectory) -> np.ndarray:
         rate, _, live = self._rate_theta(s)
         return rate[live]
@@ -302,22 +309,25 @@ def moreno_certificate(lambda_P: str = "half_min_eig", delta: float = 0.1,
                              float(norm_floor), bool(K1t_search), float(mu))
 
 
-def best_K1t(es: ErrorSystem, K1a: float, t: np.ndarray, sigma: np.ndarray,
-             psi: np.ndarray, window: float, span: float = 8.0, n: int = 60
-             ) -> tuple[float, float, float]:
+def best_K1t(es: ErrorSystem, K1a: float, run: dense.DenseRun | dense.GridRun,
+             sigma: dense.Signal, psi: np.ndarray, window: float, t_f: float,
+             span: float = 8.0, n: int = 60) -> tuple[float, float, float]:
     """Our extension, not the paper's (notes 7.2 ``K1t: best``): K~1 on a grid of ``n``
-    points in (K1^a, K1^a + span] maximising eps_max(K~1) - alpha1(K~1) on this run, with
-    the sharp c = -2 H_N G (P-independent for r = 1) and eps_max by the exact SPR test.
-    Returns (K~1, eps_max, alpha1) at the best grid point."""
+    points in (K1^a, K1^a + span] maximising eps_max(K~1) - alpha1(K~1) on this run (alpha1
+    of :func:`windowed_alpha`, from the steps; ``sigma``: sigma = H x of a sampled run),
+    with the sharp c = -2 H_N G (P-independent for r = 1) and eps_max by the exact SPR
+    test. Returns (K~1, eps_max, alpha1) at the best grid point."""
     from hgo.papers.moreno.theory import eps_max_fd
 
     c = float(-2 * es.H_N @ es.G)
-    lower = sector_lower(psi, sigma)
     best = (-math.inf, math.nan, math.nan, math.nan)
     for K1t in K1a + span * np.arange(1, n + 1) / n:
         eps = eps_max_fd(es, K1t)
-        cum = cumulative_trapezoid(c * np.maximum(0.0, K1t - lower), t, initial=0.0)
-        alpha1, _ = windowed_alpha(t, cum, window)
+
+        def varrho(s, K1t=K1t):
+            return c * np.maximum(0.0, K1t - sector_lower(psi, sigma(s)))
+
+        alpha1, _ = windowed_alpha(dense.Cumulative(run, varrho, 0.0, t_f), window)
         if eps - alpha1 > best[0]:
             best = (eps - alpha1, float(K1t), eps, alpha1)
     return best[1], best[2], best[3]
