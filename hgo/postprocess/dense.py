@@ -214,6 +214,25 @@ class Cumulative:
         return self.at_edges[k] + part
 
 
+class Remembering:
+    """A run whose ``at`` remembers the samples at each array of instants it was asked for:
+    for measuring many signals of one run on the same points one after the other (each
+    new :class:`Cumulative` samples the same Gauss nodes)."""
+
+    def __init__(self, run: DenseRun) -> None:
+        self.run, self._seen = run, {}
+
+    def at(self, ts: np.ndarray) -> Trajectory:
+        ts = np.ascontiguousarray(ts, float)
+        key = ts.tobytes()
+        if key not in self._seen:
+            self._seen[key] = self.run.at(ts)
+        return self._seen[key]
+
+    def boundaries(self, a: float, b: float) -> np.ndarray:
+        return self.run.boundaries(a, b)
+
+
 class _Pair:
     """The run seen at (t, t + shift) at once: ``at(ts)`` gives both samples."""
 

@@ -89,11 +89,15 @@ def windowed_alpha(cum: dense.Cumulative, window: float) -> tuple[float, float]:
     J = I - alpha1 t (the least gamma with int_{t0}^{t} varrho <= alpha1 (t - t0) + gamma
     on the run; :func:`dense.max_rise`, J's extremes where varrho crosses alpha1). Both
     are the run's values to about QTOL t_f, whatever the output grid."""
+    alpha1 = _alpha1(cum, window)
+    return alpha1, dense.max_rise(cum, alpha1, 0.0, cum.b)
+
+
+def _alpha1(cum: dense.Cumulative, window: float) -> float:
     t_f = cum.b
     if window >= t_f:
         raise ValueError(f"postprocess.moreno.window ({window}) must be < t_end ({t_f})")
-    alpha1, _ = dense.window_mean_max(cum, window, max(t_f / 2 - window, 0.0), t_f - window)
-    return alpha1, dense.max_rise(cum, alpha1, 0.0, t_f)
+    return dense.window_mean_max(cum, window, max(t_f / 2 - window, 0.0), t_f - window)[0]
 
 
 def certificate(cum: dense.Cumulative, eps: float, window: float, kappa: float, e0: float
@@ -320,6 +324,7 @@ def best_K1t(es: ErrorSystem, K1a: float, run: dense.DenseRun | dense.GridRun,
     from hgo.papers.moreno.theory import eps_max_fd
 
     c = float(-2 * es.H_N @ es.G)
+    run = dense.Remembering(run)  # the steps' Gauss nodes and the scan: sampled once
     best = (-math.inf, math.nan, math.nan, math.nan)
     for K1t in K1a + span * np.arange(1, n + 1) / n:
         eps = eps_max_fd(es, K1t)
@@ -327,7 +332,7 @@ def best_K1t(es: ErrorSystem, K1a: float, run: dense.DenseRun | dense.GridRun,
         def varrho(s, K1t=K1t):
             return c * np.maximum(0.0, K1t - sector_lower(psi, sigma(s)))
 
-        alpha1, _ = windowed_alpha(dense.Cumulative(run, varrho, 0.0, t_f), window)
+        alpha1 = _alpha1(dense.Cumulative(run, varrho, 0.0, t_f), window)
         if eps - alpha1 > best[0]:
             best = (eps - alpha1, float(K1t), eps, alpha1)
     return best[1], best[2], best[3]
