@@ -35,7 +35,12 @@ def test_refinement_against_tighter_integration(preset):
     absolute (the largest difference, ~5e-4, is x^2 of the stiff df2max observer, L = 121,
     whose x^2 swings by units at every noise sample and peaks at ~75), every other state to
     1e-4; eta^ of the Omega1, Omega2 observers to 1e-4 and of the df2max observer to 5e-4
-    (F^{-1} passes its x^2 difference on); the window metrics to 1e-4 relative."""
+    (F^{-1} passes its x^2 difference on); the window metrics to 1e-4 relative, those of the
+    df2max observer to 5e-4 (time means on the steps' continuous extension, issue 25; its
+    x^2 crosses the saturation kinks of the estimate inside steps at every noise sample;
+    measured apa_fig2: std_late 2.4e-4, std_w1 1.3e-4, std_w3 9.9e-5, bias_late 5.6e-5. The
+    former sample means on the 1 ms grid agreed to 1e-4 because both runs were sampled at
+    the same noise-locked instants: they were 3.5e-3 off the time mean)."""
     base = (f"experiment={preset}",)
     tight = base + ("solver.rtol=1e-11", "solver.atol=1e-13")
     (z, xh), (zt, xht) = _z(base), _z(tight)
@@ -49,7 +54,8 @@ def test_refinement_against_tighter_integration(preset):
     rows, rows_t = run_rows(base), run_rows(tight)
     for o in OBS:
         for q in METRICS:
-            assert rows[(o, q)] == pytest.approx(rows_t[(o, q)], rel=1e-4, abs=1e-9), (o, q)
+            rel = 5e-4 if o == "df2max" else 1e-4
+            assert rows[(o, q)] == pytest.approx(rows_t[(o, q)], rel=rel, abs=1e-9), (o, q)
 
 
 def test_window_metrics_do_not_depend_on_the_output_grid():
@@ -74,8 +80,10 @@ def test_discontinuity_at_a_segment_end_with_tight_tolerance_terminates():
     end forever. It must finish (status ok) and agree with the 1e-8 run. (The switch is now
     a declared break point, so that step no longer sees it; the undeclared case:
     tests/test_breakpoints.py::test_undeclared_jump_at_a_segment_end_terminates.)"""
-    tight = run_in_memory(("experiment=apa_fig2", "solver.t_end=21", "metrics.window=1",
+    tight = run_in_memory(("experiment=apa_fig2", "postprocess=none", "solver.t_end=21",
+                           "metrics.window=1",
                            "solver.rtol=1e-11", "solver.atol=1e-13"))
-    base = run_in_memory(("experiment=apa_fig2", "solver.t_end=21", "metrics.window=1"))
+    base = run_in_memory(("experiment=apa_fig2", "postprocess=none", "solver.t_end=21",
+                          "metrics.window=1"))
     assert tight.trajectory.ok and tight.trajectory.t_stop == 21.0
     assert np.abs(tight.trajectory.z - base.trajectory.z).max() < 1e-3

@@ -42,13 +42,17 @@ WINDOW_METRICS = ["max_abs_e1_W", "max_abs_e2_W", "rms_e1_W", "rms_e2_W", "mean_
 
 
 def test_metrics_do_not_depend_on_the_output_grid():
-    """Dividing dt_out (1 ms) by 10 changes every listed metric by < 1 %."""
+    """Dividing dt_out (1 ms) by 10 changes every listed metric by < 1 % (since issue 25 they
+    are measured on the steps: identical). t_settle_e_0.05 is "never" (NaN) in both: ||e|| is
+    above 0.05 inside the window W (it was 19.86 s, the last re-entry, before issue 25)."""
     def table(*extra):
         m = run_in_memory(NOMINAL + extra).metrics
         return m[m.observer == "cascade"].set_index("quantity")["empirical"]
 
     a, b = table(), table("solver.dt_out=0.0001")
-    rel = {q: abs(a[q] - b[q]) / abs(b[q]) for q in WINDOW_METRICS}
+    never = [q for q in WINDOW_METRICS if math.isnan(b[q])]
+    assert never == ["t_settle_e_0.05"] and math.isnan(a["t_settle_e_0.05"]), never
+    rel = {q: abs(a[q] - b[q]) / abs(b[q]) for q in WINDOW_METRICS if q not in never}
     assert all(math.isfinite(v) and v < 0.01 for v in rel.values()), rel
 
 

@@ -6,11 +6,14 @@ import numpy as np
 import pytest
 
 from hgo.controllers.profile_input import profile, profile_input
+from hgo.engine.simulate import Trajectory
 from hgo.observers.circle_criterion import circle_criterion_observer
 from hgo.papers.moreno import theory as th
 from hgo.papers.moreno.postprocess import first_time_below, moreno_certificate, windowed_alpha
 from hgo.papers.moreno.sector_table import example_error_system
 from hgo.plants.circle_form import circle_form_plant, moreno_example_plant
+from hgo.postprocess import dense
+from hgo.postprocess.dense import GridRun
 
 GAINS = [(2, 200, 120, 0), (1, 50, 10, 0), (5, 1000, 500, 0), (2, 200, 120, 0.5),
          (2, 200, 20, 0.5), (2, 200, 120, 1), (2, 200, 10, 0.1)]
@@ -71,13 +74,39 @@ def test_structural_lower_bound_at_a0():
 
 
 def test_remark63_alpha_and_gamma():
-    """varrho = 1 on [0, 1), 0 after: over t >= t_f/2 - Delta the window mean is 0, so
-    alpha1 = 0 and gamma = int varrho = 1 (least constant)."""
+    """varrho = 1 on [0, 1], 0 from 1 + 1e-9 on (a broken line): over t >= t_f/2 - Delta the
+    window mean is 0, so alpha1 = 0 and gamma = int varrho = 1 + 5e-10 (least constant),
+    both from I(t) of the run's pieces (dense.Cumulative)."""
+    t = np.array([0.0, 1.0, 1.0 + 1e-9, 20.0])
+    run = GridRun(Trajectory(t, np.array([[1.0], [1.0], [0.0], [0.0]]), np.zeros((4, 0)),
+                             np.zeros((4, 1)), np.zeros((4, 1)), np.zeros((4, 0)),
+                             np.zeros((4, 0)), 0, 20.0, np.zeros(0)))
+    alpha1, gamma = windowed_alpha(dense.Cumulative(run, lambda s: s.z[:, 0], 0.0, 20.0), 2.0)
+    assert alpha1 == 0 and abs(gamma - 1) < 1e-8
     t = np.linspace(0, 20, 20001)
-    cum = np.minimum(t, 1.0)
-    alpha1, gamma = windowed_alpha(t, cum, 2.0)
-    assert alpha1 == 0 and abs(gamma - 1) < 1e-12
     assert first_time_below(t, np.exp(-t), 1e-3) == pytest.approx(np.log(1e3), abs=1e-6)
+
+
+def test_remark63_window_maximum_between_step_ends():
+    """varrho = sin t on [0, 20] as a run of 7 pieces (straight lines between 8 samples of
+    sin): the windowed mean's maximum over s in [8, 18] with Delta = 2 lies between the
+    pieces' ends; window_mean_max finds it where varrho(s + Delta) = varrho(s), against a
+    brute-force search on 2e5 window starts (exact integrals of the broken line)."""
+    t = np.linspace(0, 20, 8)
+    v = np.sin(t)
+    run = GridRun(Trajectory(t, v[:, None], np.zeros((8, 0)), np.zeros((8, 1)),
+                             np.zeros((8, 1)), np.zeros((8, 0)), np.zeros((8, 0)), 0, 20.0,
+                             np.zeros(0)))
+    cum = dense.Cumulative(run, lambda s: s.z[:, 0], 0.0, 20.0)
+    alpha1, s_best = dense.window_mean_max(cum, 2.0, 8.0, 18.0)
+    fine = np.linspace(0, 20, 400001)
+    cum_fine = np.concatenate([[0.0], np.cumsum(np.diff(fine) * 0.5 * (np.interp(fine[1:], t, v)
+                                                                 + np.interp(fine[:-1], t, v)))])
+    starts = fine[(fine >= 8.0) & (fine <= 18.0)]
+    brute = (np.interp(starts + 2.0, fine, cum_fine) - np.interp(starts, fine, cum_fine)) / 2.0
+    assert alpha1 >= brute.max() - 1e-9 and alpha1 == pytest.approx(brute.max(), abs=1e-8)
+    assert np.interp(s_best, t, v) == pytest.approx(np.interp(s_best + 2.0, t, v), abs=1e-9)
+    assert not np.any(np.isclose(s_best, np.concatenate([t, t - 2.0]), atol=1e-3))
 
 
 @pytest.mark.parametrize("call, message", [

@@ -47,6 +47,14 @@ checked after every step (a load): the run stops within one step of a request, w
 any change to the integration itself.
 The record arrays (Z, D, Y, M, U, XH) are filled only when they have rows (an ensemble
 passes empty ones and keeps only the metric accumulators).
+
+Step record ``SR`` (adaptive methods, when it has rows): one row per accepted step,
+``[t, h, z (NZ), F (N_F * NZ), d, m]``: the step's start, length, start state, the
+coefficients of its continuous extension and the discrete state and noise sample it was
+taken with, so that any signal can be evaluated at any instant of the run afterwards
+(:func:`dense_signals`): metrics from the integration, not from the output grid. ``ctl[2]``
+returns the number of accepted steps (rows beyond ``SR``'s are counted, not written: the
+caller runs again with a larger record).
 """
 # ruff: noqa: F821, F811  (names come from the generated header; one `integrate` per section)
 # --- section: common ---
@@ -207,11 +215,11 @@ def _step_end(t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, t_win0, tol):
 @pjit
 def integrate_ensemble(Z0, D0, PP, noise, noise_dt, BR, t_end, dt_out, h_max, rtol, atol, stab,
                        RHO, bound, t_window, ACC, STATUS, T_STOP, N_REC, ZR, DR, YR, MR, UR,
-                       XHR, ctl):
+                       XHR, SR, ctl):
     """Integrate many runs in parallel (one per row of Z0, D0, PP, noise, BR: each member's
     break points, padded with inf, RHO: each member's own constant spectral radius).
     Records (ZR..XHR, (members, n_out, k)) are filled only when they have rows; otherwise
-    metrics only. ``ctl`` is shared and only read."""
+    metrics only. ``ctl`` is shared and only read (``SR`` is empty: no step record)."""
     n_members = Z0.shape[0]
     for i in prange(n_members):
         z = Z0[i].copy()
@@ -219,7 +227,7 @@ def integrate_ensemble(Z0, D0, PP, noise, noise_dt, BR, t_end, dt_out, h_max, rt
         st, n_rec, t_stop = integrate(z, d, PP[i], noise[i], noise_dt, BR[i], t_end, dt_out,
                                       h_max,
                                       rtol, atol, stab, RHO[i], bound, t_window, ZR[i],
-                                      DR[i], YR[i], MR[i], UR[i], XHR[i], ACC[i], ctl)
+                                      DR[i], YR[i], MR[i], UR[i], XHR[i], ACC[i], SR, ctl)
         STATUS[i] = st
         T_STOP[i] = t_stop
         N_REC[i] = n_rec
@@ -247,7 +255,7 @@ def _rk4_step(t, h, z, d, m, P, w, k1, k2, k3, k4, zt, t_lim):
 
 @jit
 def integrate(z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol, stab,
-              rho_const, bound, t_window, Z, D, Y, M, U, XH, acc, ctl):
+              rho_const, bound, t_window, Z, D, Y, M, U, XH, acc, SR, ctl):
     """Integrate one run (RK4). Returns (status, number of output samples, stop time).
 
     One compiled function (no wrapper around an inner one): every extra level of numba
@@ -359,6 +367,55 @@ def _initial_step(t, z, d, m, P, w, k1, k2, zt, rtol, atol, h_max, t_lim):
     return min(100.0 * h0, h1, h_max)
 
 
+@ijit
+def _record_step(SR, ctl, t, h, z, F, d, m):
+    """Row ctl[2] of the step record (written while it fits), then ctl[2] += 1."""
+    row = ctl[2]
+    ctl[2] = row + 1
+    if row >= SR.shape[0]:
+        return
+    nz, nf, nd = z.shape[0], F.shape[0], d.shape[0]
+    SR[row, 0] = t
+    SR[row, 1] = h
+    for i in range(nz):
+        SR[row, 2 + i] = z[i]
+    for i in range(nf):
+        SR[row, 2 + nz + i] = F[i]
+    for i in range(nd):
+        SR[row, 2 + nz + nf + i] = d[i]
+    for i in range(NY):
+        SR[row, 2 + nz + nf + nd + i] = m[i]
+
+
+@jit
+def dense_signals(SR, n_steps, ts, P, Z, D, Y, M, U, XH):
+    """Every signal at the instants ``ts`` (within the run) from the step record: the step
+    containing t (the later one at a step end: right-continuous), its continuous extension
+    at t, the outputs with the step's discrete state and noise sample."""
+    nz, nd = Z.shape[1], D.shape[1]
+    nf = N_F * nz
+    work = np.zeros(2 * nz + nf + nd + NY + N_COMMON_WORK)
+    zo = view(work, 0, nz)
+    z = view(work, nz, 2 * nz)
+    F = view(work, 2 * nz, 2 * nz + nf)
+    d = view(work, 2 * nz + nf, 2 * nz + nf + nd)
+    m = view(work, 2 * nz + nf + nd, 2 * nz + nf + nd + NY)
+    w, y, u, xh, sq, prev, win, m2 = _common_views(work, 2 * nz + nf + nd + NY)
+    starts = SR[:n_steps, 0]
+    for j in range(ts.shape[0]):
+        k = max(0, min(n_steps - 1, np.searchsorted(starts, ts[j], side="right") - 1))
+        for i in range(nz):
+            z[i] = SR[k, 2 + i]
+        for i in range(nf):
+            F[i] = SR[k, 2 + nz + i]
+        for i in range(nd):
+            d[i] = SR[k, 2 + nz + nf + i]
+        for i in range(NY):
+            m[i] = SR[k, 2 + nz + nf + nd + i]
+        _dense_eval((ts[j] - SR[k, 0]) / SR[k, 1], z, F, zo)
+        _emit(np.int64(j), ts[j], zo, d, m, P, w, y, u, xh, Z, D, Y, M, U, XH)
+
+
 # 3-point Gauss-Legendre on [0, 1]: exact for polynomials of degree 5
 GAUSS_NODES = np.array([0.5 - 0.5 * math.sqrt(0.6), 0.5, 0.5 + 0.5 * math.sqrt(0.6)])
 GAUSS_WEIGHTS = np.array([5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0])
@@ -382,7 +439,7 @@ def _window_step(t, h, a, b, z, d, m, P, w, y, u, xh, sq, acc, F, zo):
 
 @jit
 def integrate(z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol, stab,
-              rho_const, bound, t_window, Z, D, Y, M, U, XH, acc, ctl):
+              rho_const, bound, t_window, Z, D, Y, M, U, XH, acc, SR, ctl):
     """Integrate one run (adaptive). Returns (status, number of output samples, stop time).
 
     One compiled function, as for RK4 (``stab`` and ``rho_const`` are unused here).
@@ -452,6 +509,10 @@ def integrate(z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol
                 continue
             t_new = t_seg if last else t + hh
             prepared = False
+            if SR.shape[0] > 0:  # the step record (module doc)
+                _dense_prep(t, hh, z, zt, d, m, P, w, K, F, zo)
+                prepared = True
+                _record_step(SR, ctl, t, hh, z, F, d, m)
             if t_new > t_win0 + tol:  # the step overlaps the metrics window
                 _dense_prep(t, hh, z, zt, d, m, P, w, K, F, zo)
                 prepared = True

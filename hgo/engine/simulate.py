@@ -76,6 +76,10 @@ class SolverSettings:
     max_steps: int = 10 ** 9  # a run stops (failed) after this many integration steps
     max_output_rows: int = 10 ** 8  # runs recording more output rows are refused up front
     split_observers: bool = False  # each observer with its own copy of the plant (module doc)
+    # keep every accepted step with its continuous extension (adaptive methods): the run's
+    # signals at any instant afterwards (Trajectory.dense); set for post-processors that
+    # measure from the integration rather than the output grid
+    dense_steps: bool = False
 
     def validate(self) -> None:
         """Every setting in its range (keys named as in the config: solver.*, metrics.*)."""
@@ -158,6 +162,7 @@ class Trajectory:
     status: int
     t_stop: float
     acc: np.ndarray  # window metrics (System.n_acc): integrals, max norms, window length
+    dense: DenseRun | None = None  # the steps (SolverSettings.dense_steps, adaptive methods)
 
     @property
     def ok(self) -> bool:
@@ -166,6 +171,56 @@ class Trajectory:
     @property
     def message(self) -> str:
         return STATUS[self.status]
+
+
+@dataclass
+class StepRecord:
+    """The accepted steps of one integration with their continuous extensions (rows as in
+    kernel_template's step record) and what is needed to evaluate its signals."""
+
+    system: System
+    method: str
+    P: np.ndarray
+    rows: np.ndarray
+
+    def at(self, ts: np.ndarray) -> Trajectory:
+        """Every signal at the instants ``ts`` (in [0, t_stop])."""
+        ts = np.ascontiguousarray(ts, float)
+        ny, nu = len(self.system.plant.output_names), len(self.system.plant.input_names)
+        sysm = self.system
+        t, *rec = _record_arrays(len(ts), (1, sysm.nz, sysm.nd, ny, ny, nu, sysm.nxh))
+        if "_signals" not in self.__dict__:  # (loaded once: at() is called many times)
+            self._signals = _first_compiled(_kernel(sysm, self.method), "dense_signals")
+        self._signals(self.rows, len(self.rows), ts, self.P, *rec)
+        return Trajectory(ts, *rec, 0, float(ts[-1]) if len(ts) else 0.0,
+                          np.full(sysm.n_acc(), np.nan))
+
+
+@dataclass
+class DenseRun:
+    """A run's signals at any instant: its step records (one per part of a split run,
+    merged into the whole layout as the parts' output samples are)."""
+
+    system: System
+    records: list[StepRecord]
+    parts: list | None = None  # the _Part of each record (split runs)
+
+    def at(self, ts: np.ndarray) -> Trajectory:
+        runs = [record.at(ts) for record in self.records]
+        return runs[0] if self.parts is None else _merge(self.system, self.parts, runs)
+
+    def observer(self, k: int) -> DenseRun:
+        """The run as observer ``k`` sees it: of a split run, its part alone (its own steps,
+        its plant copy; the other observers' columns NaN), so that measuring one observer
+        evaluates and scans one part; an unsplit run as it is."""
+        if self.parts is None:
+            return self
+        return DenseRun(self.system, [self.records[k]], [self.parts[k]])
+
+    def boundaries(self, a: float, b: float) -> np.ndarray:
+        """The step ends of every part strictly inside (a, b), sorted, with a and b."""
+        inner = [r.rows[:, 0][(r.rows[:, 0] > a) & (r.rows[:, 0] < b)] for r in self.records]
+        return np.unique(np.concatenate([[a, b], *inner]))
 
 
 def _kernel(system: System, method: str):
@@ -285,8 +340,12 @@ def _common_args(system: System, solver: SolverSettings, noise: Noise) -> tuple:
 
 
 def _control(solver: SolverSettings) -> np.ndarray:
-    """The kernel's control vector: [stop request (set on Ctrl-C), step limit]."""
-    return np.array([0, solver.max_steps], dtype=np.int64)
+    """The kernel's control vector: [stop request (set on Ctrl-C), step limit, steps
+    recorded (out)]."""
+    return np.array([0, solver.max_steps, 0], dtype=np.int64)
+
+
+NO_STEPS = np.zeros((0, 0))  # an empty step record: the kernel keeps none
 
 
 def _check_noise(system: System, noises: list[Noise]) -> None:
@@ -316,18 +375,39 @@ def simulate(system: System, solver: SolverSettings, noise: Noise,
     args = _common_args(system, solver, noise)
     n_out = int(round(solver.t_end / solver.dt_out)) + 1
     ny, nu = noise.samples.shape[1], len(system.plant.input_names)
-    d = system.d0()
     t, *rec = _record_arrays(n_out, (1, system.nz, system.nd, ny, ny, nu, system.nxh))
-    acc = np.zeros(system.n_acc())
     breaks = system.breaks(P, solver.t_end)
-    status, n_rec, t_stop = _call(
-        system, solver.method, "integrate", z, d, P,
-        np.ascontiguousarray(noise.samples, float), args[0], breaks, *args[1:], *rec, acc,
-        _control(solver))
+    keep = solver.dense_steps and solver.method != "rk4"
+    cap = _steps_guess(solver, noise) if keep else 0
+    while True:  # (once, unless the step record was too short: then again, long enough)
+        steps, ctl = np.empty((cap, _step_width(system, solver.method) if keep else 0)), \
+            _control(solver)
+        acc = np.zeros(system.n_acc())
+        status, n_rec, t_stop = _call(
+            system, solver.method, "integrate", z.copy(), system.d0(), P,
+            np.ascontiguousarray(noise.samples, float), args[0], breaks, *args[1:], *rec, acc,
+            steps, ctl)
+        if ctl[2] <= cap:
+            break
+        cap = int(ctl[2])
     t = t[:n_rec, 0]
     t[:] = np.arange(n_rec) * solver.dt_out
     Z, D, Y, M, U, XH = (a[:n_rec] for a in rec)
-    return Trajectory(t, Z, D, Y, M, U, XH, int(status), float(t_stop), acc)
+    dense = DenseRun(system, [StepRecord(system, solver.method, P, steps[:ctl[2]])]) \
+        if keep else None
+    return Trajectory(t, Z, D, Y, M, U, XH, int(status), float(t_stop), acc, dense)
+
+
+def _steps_guess(solver: SolverSettings, noise: Noise) -> int:
+    """Room for the step record: one step per noise sample and 4096 more."""
+    per_noise = solver.t_end / noise.dt if math.isfinite(noise.dt) else 0.0
+    return int(per_noise) + 4096
+
+
+def _step_width(system: System, method: str) -> int:
+    """Length of a step-record row: t, h, z, the continuous extension, d, m."""
+    n_f = {"dopri5": 4, "dop853": 7}[method]  # (tableau: N_F of each method)
+    return 2 + system.nz * (1 + n_f) + system.nd + len(system.plant.output_names)
 
 
 def _record_arrays(n_out: int, widths: tuple[int, ...]) -> list[np.ndarray]:
@@ -419,6 +499,9 @@ def _merge(system: System, parts: list[_Part], runs: list[Trajectory]) -> Trajec
                      np.full((n, system.nxh), np.nan),
                      next((run.status for run in runs if run.status != 0), 0),
                      min(run.t_stop for run in runs), np.full(system.n_acc(), np.nan))
+    if all(run.dense is not None for run in runs):
+        out.dense = DenseRun(system, [r for run in runs for r in run.dense.records],
+                             parts[:len(runs)])
     nx = system.plant.nx
     out.z[:, :nx] = first.z[:n, :nx]
     for part, run in zip(parts, runs, strict=False):
@@ -476,7 +559,7 @@ def simulate_ensemble(system: System, solver: SolverSettings, noise: list[Noise]
     recs = [np.zeros((n, n_out, k)) for k in (system.nz, system.nd, ny, ny, nu, system.nxh)]
     _call(system, solver.method, "integrate_ensemble", z0, d0, params, samples, args[0],
           member_breaks(system, params, solver.t_end), *args[1:], acc, status, t_stop, n_rec,
-          *recs, _control(solver))
+          *recs, NO_STEPS, _control(solver))
     out = {"acc": acc, "status": status, "t_stop": t_stop}
     if record:
         t = np.arange(n_out) * solver.dt_out

@@ -3,7 +3,10 @@
 The ``postprocess`` config group is a mapping name -> ``_target_`` factory; each factory
 returns an object with ``apply(system, traj) -> PostOutput``. The runner logs the
 returned series in the recording, appends the rows to ``metrics.csv`` and uses
-``bounds`` to fill the ``bound`` column of matching (observer, quantity) rows.
+``bounds`` to fill the ``bound`` column of matching (observer, quantity) rows. A
+post-processor with ``needs_steps = True`` gets a run that kept its steps
+(``traj.dense``, adaptive methods): it measures on the integration, not on the output
+grid (:mod:`hgo.postprocess.dense`).
 """
 
 from __future__ import annotations

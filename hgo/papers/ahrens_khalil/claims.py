@@ -10,9 +10,12 @@ from __future__ import annotations
 
 import math
 
-from hgo.core.registry import NOT_REPRODUCED, REPRODUCED, Measured, claim
+import numpy as np
+
+from hgo.core.registry import REPRODUCED, Measured, claim
+from hgo.papers.ahrens_khalil.design import least_upper_envelope, ultimate_bound
 from hgo.papers.ahrens_khalil.postprocess import TradeoffAnalysis, analyse_tradeoff
-from hgo.running.in_memory import run_rows
+from hgo.running.in_memory import compose_cached, run_rows
 
 PAPER = "ahrens_khalil"
 FIG1_SHORT = ("experiment=ak_fig1", "solver.t_end=0.5", "postprocess.ak.late_window=0.2")
@@ -33,11 +36,13 @@ def _loop(name: str) -> dict[tuple[str, str], float]:
        runs=(" ".join(FIG1_SHORT),), verdict=REPRODUCED, readings=(*SETUP, "T_d = 0.15 s"))
 def claim1_one_switch_after_delay() -> Measured:
     rows = run_rows(FIG1_SHORT)
+    T_d = float(compose_cached(FIG1_SHORT).observer.switched.T_d)  # the config's, not typed
     sw = {q: rows[("switched", q)] for q in ("n_switches", "t_enter_first", "t_switch_first",
                                              "zone_time_at_first_switch")}
     holds = (sw["n_switches"] == 1
-             and abs(sw["t_switch_first"] - sw["t_enter_first"] - 0.15) < 1e-5)
-    return Measured(holds, sw, "one switch, 0.15 s after entering the zone (to one substep)")
+             and abs(sw["t_switch_first"] - sw["t_enter_first"] - T_d) < 1e-5)
+    return Measured(holds, {**sw, "T_d (config)": T_d},
+                    f"one switch, T_d = {T_d:g} s after entering the zone (to one substep)")
 
 
 @claim(paper=PAPER, id="claim2_transient_like_eps1", where="Section 4, Fig. 2",
@@ -68,15 +73,25 @@ def claim3_steady_state_like_eps2() -> Measured:
     return Measured(holds, numbers)
 
 
-def tradeoff(period: float) -> TradeoffAnalysis:
-    """(25) fitted to the ak_tradeoff runs on EPS_GRID x MU_GRID, noise held ``period`` s."""
+MU_SPLIT = 4e-4  # the envelope of (25) is fitted on mu <= MU_SPLIT, checked above it
+ENVELOPE_SLACK = 0.05  # measured / (25) up to 1.05 on the held-out points (fit noise)
+
+
+def tradeoff_points(period: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(eps, mu, measured ultimate bound) of the ak_tradeoff runs on EPS_GRID x MU_GRID,
+    noise held ``period`` s."""
     eps, mu, bound = [], [], []
     for m in MU_GRID:
         for e in EPS_GRID:
             rows = run_rows(("experiment=ak_tradeoff", f"noise.period={period}",
                              f"observer.fixed.eps1={e}", f"noise.amplitude={m}"))
             eps.append(e), mu.append(m), bound.append(rows[("fixed", "ultimate_bound_err")])
-    return analyse_tradeoff(eps, mu, bound, r=2)
+    return np.array(eps), np.array(mu), np.array(bound)
+
+
+def tradeoff(period: float) -> TradeoffAnalysis:
+    """(25) fitted to the ak_tradeoff runs (least squares: how tight it is)."""
+    return analyse_tradeoff(*tradeoff_points(period), r=2)
 
 
 def _tradeoff_numbers(a: TradeoffAnalysis) -> dict[str, float]:
@@ -94,24 +109,54 @@ def _scales_like_sqrt_mu(a: TradeoffAnalysis) -> bool:
             and abs(a.power_fit.exponent - 0.5) <= 0.05)
 
 
+def _upper_bound_check(period: float) -> Measured:
+    """(25) as the paper states it, an upper bound with constants c1, c2 > 0 independent of
+    (eps, mu): the least such envelope of the measured ultimate bounds on the small-noise
+    half of the grid (mu <= MU_SPLIT) must bound the large-noise half too (within
+    ENVELOPE_SLACK): the noise term may grow at most like mu / eps^(r-1). Its tightness
+    (how close the measured bounds come to it, the minimiser's scaling) is an extra
+    observation in the numbers, not the paper's claim."""
+    eps, mu, bound = tradeoff_points(period)
+    small = mu <= MU_SPLIT
+    fit = least_upper_envelope(eps[small], mu[small], bound[small], r=2)
+    excess = float(np.max(bound[~small] / ultimate_bound(eps[~small], mu[~small], fit.c1,
+                                                         fit.c2, 2)))
+    whole = least_upper_envelope(eps, mu, bound, r=2)
+    tight = bound / ultimate_bound(eps, mu, whole.c1, whole.c2, 2)
+    a = tradeoff(period)
+    numbers = {"c1 (envelope, mu <= 4e-4)": fit.c1, "c2 (envelope, mu <= 4e-4)": fit.c2,
+               "max measured / (25) for mu >= 1.6e-3": excess,
+               "tightness: median measured / (25) (envelope of all points)":
+                   float(np.median(tight)),
+               "tightness: min measured / (25)": float(np.min(tight)),
+               **_tradeoff_numbers(a),
+               "tightness: measured minimiser ~ mu^(1/r) (grid, 2 s.e.)":
+                   str(_scales_like_sqrt_mu(a))}
+    holds = fit.c1 > 0 and fit.c2 > 0 and excess <= 1 + ENVELOPE_SLACK
+    return Measured(bool(holds), numbers,
+                    "(25) bounds the measured ultimate bounds with c1, c2 > 0 fitted on the "
+                    f"small noises and checked on the large ones (slack {ENVELOPE_SLACK:g}); "
+                    "its tightness (minimiser exponent, residuals) is reported, not judged")
+
+
 @claim(paper=PAPER, id="claim4_tradeoff_held_noise", where="Section 2, (25)",
-       statement="The ultimate bound is eps c1 + mu c2 / eps^(r-1); its minimiser eps* grows "
-                 "like mu^(1/r) (r = 2).",
+       statement="The estimation error satisfies the ultimate bound ||x - x̂|| <= eps c1 + "
+                 "mu c2 / eps^(r-1) (r = 2), which puts a lower bound O(mu^(1/r)) on eps.",
        runs=("experiment=ak_tradeoff noise.period=0.2 (40 points)",), verdict=REPRODUCED,
        readings=("noise held 0.2 s: each noise jump acts alone on the observer",
-                 "bound = max ||x - x̂|| over the last 6 s of a 10 s run"))
+                 "bound = max ||x - x̂|| over the last 6 s of a 10 s run",
+                 "(25) is an upper bound (the paper: 'satisfies the ultimate bound'); its "
+                 "tightness is an extra observation"))
 def claim4_tradeoff_held_noise() -> Measured:
-    a = tradeoff(0.2)
-    return Measured(_scales_like_sqrt_mu(a), _tradeoff_numbers(a),
-                    "exponent within 2 standard errors of 1/r = 0.5")
+    return _upper_bound_check(0.2)
 
 
 @claim(paper=PAPER, id="claim4_tradeoff_encoder_noise", where="Section 2, (25), Section 4",
-       statement="(25) and eps* ~ mu^(1/r) with the encoder's noise (held 0.8 ms).",
-       runs=("experiment=ak_tradeoff noise.period=0.0008 (40 points)",), verdict=NOT_REPRODUCED,
-       readings=("noise held 0.8 ms, the encoder's",))
+       statement="(25) holds with the encoder's noise (held 0.8 ms).",
+       runs=("experiment=ak_tradeoff noise.period=0.0008 (40 points)",), verdict=REPRODUCED,
+       readings=("noise held 0.8 ms, the encoder's",
+                 "(25) is an upper bound; its tightness is an extra observation: fast held "
+                 "noise averages out over eps >> 0.8 ms, the measured minimiser scales like "
+                 "mu^0.4 and the bound is loose at small eps"))
 def claim4_tradeoff_encoder_noise() -> Measured:
-    a = tradeoff(0.0008)
-    return Measured(_scales_like_sqrt_mu(a), _tradeoff_numbers(a),
-                    "fast held noise averages out over eps >> 0.8 ms: the minimiser scales "
-                    "like mu^0.4, (25) fits with ~30 % residuals")
+    return _upper_bound_check(0.0008)

@@ -95,6 +95,24 @@ def fit_ultimate_bound(eps: Sequence[float], mu: Sequence[float], bound: Sequenc
     return UltimateBoundFit(float(c1), float(c2), float(np.sqrt(np.mean(resid ** 2))))
 
 
+def least_upper_envelope(eps: Sequence[float], mu: Sequence[float], bound: Sequence[float],
+                         r: int) -> UltimateBoundFit:
+    """The least (c1, c2) >= 0 with bound_i <= F_r(eps_i, mu_i) of (25) at every point: a
+    linear programme minimising the sum of F_r / bound_i (``rms_residual``: of the relative
+    gaps F_r / bound - 1)."""
+    from scipy.optimize import linprog
+
+    eps, mu, bound = (np.asarray(v, float).ravel() for v in (eps, mu, bound))
+    rel = np.column_stack([eps, mu / eps ** (r - 1)]) / bound[:, None]
+    res = linprog(rel.sum(axis=0), A_ub=-rel, b_ub=-np.ones(bound.size),
+                  bounds=[(0, None), (0, None)])
+    if not res.success:
+        raise ValueError(f"no envelope of (25) found: {res.message}")
+    c1, c2 = (float(v) for v in res.x)
+    gap = rel @ res.x - 1.0
+    return UltimateBoundFit(c1, c2, float(np.sqrt(np.mean(gap ** 2))))
+
+
 def optimal_eps(mu: float | np.ndarray, c1: float, c2: float, r: int) -> float | np.ndarray:
     """Minimiser of F_r(., mu): eps* = ((r-1) mu c2 / c1)^(1/r) (Ahrens & Khalil (25))."""
     if r < 2:

@@ -74,10 +74,16 @@ def bound_order() -> Measured:
                             "0.8 (holds for hbar = 1), by a relative excess < 1e-3")
 
 
-@claim(paper=PAPER, id="fig1_order_in_mean", where="Sec. 3.1, text on Fig. 1",
+TIE = 1e-9  # |Omega2 - Omega1| <= TIE Omega1: a tie (they coincide exactly on some arcs)
+
+
+@claim(paper=PAPER, id="fig1_order_in_mean", where="Sec. 3.1, text on Fig. 1; (12), (13)",
        statement="the predicted order df2max >= Omega1 >= Omega2 >= df2/dx2 is observed in the "
                  "mean", verdict=REPRODUCED, runs=("experiment=apa_fig2 seed=0,1,2",),
-       readings=(BASE, R_C3, R_C8, R_C11, "C12: Omega_i along its own observer"))
+       readings=(BASE, R_C3, R_C8, R_C11, "C12: Omega_i along its own observer",
+                 "Omega2 bounds the incremental rate |f2(x2) - f2(x^2)| / |x2 - x^2| of (12): "
+                 "the last inequality compares mean Omega2 with the mean of |df2/dx2| (the "
+                 "signed mean is negative, -0.61, and would hold trivially)"))
 def fig1_order_in_mean() -> Measured:
     nums: dict[str, float | str] = {}
     ok = True
@@ -85,20 +91,21 @@ def fig1_order_in_mean() -> Measured:
         rows = run_rows(paper(s))
         t, ser = _series(paper(s))
         means = [rows[(o, "mean_Omega")] for o in OBS]
-        true, model = rows[("plant", "mean_rate_true")], rows[("plant", "mean_rate_model")]
+        abs_true, abs_model = (rows[("plant", f"mean_abs_rate_{k}")] for k in ("true", "model"))
         om1 = ser["/observer/omega1/Omega"][:, 0]
         om2 = ser["/observer/omega2/Omega"][:, 0]
-        abs_true = float(np.abs(ser["/apa/rate"][:, 0]).mean())
+        tie = np.abs(om2 - om1) <= TIE * np.abs(om1)
         for o, m in zip(OBS, means, strict=True):
             nums[f"seed {s} mean {o}"] = m
-        nums[f"seed {s} mean df2/dx2 (true)"] = true
-        nums[f"seed {s} mean df2/dx2 (hbar_o)"] = model
         nums[f"seed {s} mean |df2/dx2| (true)"] = abs_true
-        nums[f"seed {s} share Omega2(t) <= Omega1(t)"] = float(np.mean(om2 <= om1))
-        ok &= _ordered(means) and means[-1] >= max(true, model)
+        nums[f"seed {s} mean |df2/dx2| (hbar_o)"] = abs_model
+        nums[f"seed {s} mean df2/dx2 (true, signed)"] = rows[("plant", "mean_rate_true")]
+        nums[f"seed {s} share Omega2 < Omega1 (samples)"] = float(np.mean((om2 < om1) & ~tie))
+        nums[f"seed {s} share Omega2 = Omega1 (ties, rel. {TIE:g})"] = float(np.mean(tie))
+        ok &= _ordered(means) and means[-1] >= max(abs_true, abs_model)
     return Measured(holds=ok, numbers=nums,
-                    summary="time means over [0, 50]: df2max > mean Omega1 > mean Omega2 > "
-                            "mean df2/dx2 (both hbar readings) for every seed")
+                    summary="time means over [0, 50] (on the steps): df2max > mean Omega1 > "
+                            "mean Omega2 > mean |df2/dx2| (both hbar readings) for every seed")
 
 
 def _increment_rms(t: np.ndarray, x: np.ndarray, lag: int) -> float:

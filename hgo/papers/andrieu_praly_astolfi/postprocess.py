@@ -11,22 +11,26 @@ series
 * ``/apa/rate``: df2/dx2 along the true solution, with the plant's hbar (x = F_1(eta))
   and with the observers' hbar_o (x = F_hbar_o(eta)) (reading C11: both).
 
-rows per observer (e = eta^2 - eta2, the Fig. 2 error; windows [a, b) on the output grid)
+rows per observer (e = eta^2 - eta2, the Fig. 2 error; windows [a, b] of the integration)
 ``bias_late``, ``std_late`` (mean, std of e on ``late``), ``rms_post`` (``post``),
 ``bias_w<k>``, ``std_w<k>`` (steady window k = 1..4), ``peak_e_x2`` (max |e_x2| on
 ``transient``), ``t1_<thr>`` (first time |e| < thr), ``ts_<thr>`` (settling: |e| < thr
-from then until the end of ``transient``; NaN if never), ``L0``, ``L_end``, ``min_L``,
+from then until the end of ``transient``; NaN, "never", if |e| >= thr at its end),
+``L0``, ``L_end``, ``min_L``,
 ``max_L`` (bound: max(L(0), phi2 + (phi3/phi1) df2max) for the df2max and Omega1
 observers, from (8) with Omega <= df2max: Omega1 <= df2max by the mean-value theorem; no
 bound row for Omega2, whose sup the paper does not give), ``mean_Omega`` (over [0, T]),
-``share_sat_high`` / ``share_sat_low`` (share of samples with x^2 above x2hi(y_s) / below
+``share_sat_high`` / ``share_sat_low`` (share of [0, T] with x^2 above x2hi(y_s) / below
 x2lo(y_s)), and the set-up constants ``eps1``, ``eps2``, ``df2max`` in force;
 rows of ``plant``: ``min_eta1``, ``min_eta2`` (invariance of M_eta), ``mean_rate_true``,
-``mean_rate_model``, ``max_rate_true``, ``t_max_rate_true`` (df2/dx2 along the solution).
+``mean_rate_model``, ``max_rate_true``, ``t_max_rate_true`` (df2/dx2 along the solution),
+``mean_abs_rate_true``, ``mean_abs_rate_model`` (time means of |df2/dx2|).
 
-Window means are sample means on the uniform output grid (NaN for a window beyond the
-horizon); a test checks that dividing
-``solver.dt_out`` by 10 changes them by < 1 %.
+Every row is measured from the integration's steps and their continuous extension, not
+from the output grid (:mod:`hgo.postprocess.dense`: time means by Gauss-Legendre on each
+step, crossings by root finding, maxima refined between the steps; NaN for a window
+beyond the horizon): a test checks they do not move with ``solver.dt_out``. The series
+are the output samples.
 """
 
 from __future__ import annotations
@@ -38,12 +42,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from hgo.engine.jit import kernel_helper
-from hgo.engine.simulate import Trajectory
+from hgo.engine.simulate import DenseRun, Trajectory
 from hgo.engine.system import System
 from hgo.observers import homogeneous_dynamic as hd
 from hgo.outputs.recording import Series
 from hgo.plants.contois import clip, df2_dx2, reaction_rate, x2_high, x2_low
-from hgo.postprocess import PostOutput
+from hgo.postprocess import PostOutput, dense
+from hgo.postprocess.dense import steps_of
 
 RATE = "/apa/rate"
 
@@ -68,39 +73,62 @@ def rate_series(eta1, eta2, u, hbar, out):
         out[k] = df2_dx2(eta1[k], reaction_rate(eta1[k], eta2[k], hbar), u[k], hbar)
 
 
-def window(t: np.ndarray, ab: Sequence[float]) -> np.ndarray:
-    """Mask of the samples in [a, b) (b = the horizon: [a, b])."""
-    a, b = ab
-    return (t >= a - 1e-9) & ((t < b - 1e-9) | (b >= t[-1] - 1e-9))
-
-
-def _mean(x: np.ndarray) -> float:
-    return float(x.mean()) if x.size else math.nan
-
-
-def _std(x: np.ndarray) -> float:
-    return float(x.std()) if x.size else math.nan
-
-
-def first_below(t: np.ndarray, e: np.ndarray, thr: float) -> float:
-    """First time |e| < thr (NaN if never)."""
-    k = np.flatnonzero(np.abs(e) < thr)
-    return float(t[k[0]]) if k.size else math.nan
-
-
-def settling(t: np.ndarray, e: np.ndarray, thr: float, span: Sequence[float]) -> float:
-    """The first time after which |e| < thr up to the end of ``span`` (NaN if not at its end)."""
-    m = window(t, span)
-    tt, ee = t[m], np.abs(e[m])
-    above = np.flatnonzero(ee >= thr)
-    if not above.size:
-        return float(tt[0])
-    return float(tt[above[-1] + 1]) if above[-1] + 1 < tt.size else math.nan
-
-
 def is_apa_observer(obs) -> bool:
     """The observer (7)-(8) on the Contois model (the rates below are that model's)."""
     return obs.f is hd.f and obs.p.model is hd.contois_model
+
+
+def _span(ab: Sequence[float], t_stop: float) -> tuple[float, float] | None:
+    """The window [a, b] cut at the run's end; None (NaN metrics) if it starts after it."""
+    a, b = float(ab[0]), min(float(ab[1]), t_stop)
+    return (a, b) if a < b else None
+
+
+def _rates(s: Trajectory, hbar: float) -> np.ndarray:
+    """df2/dx2 at x = F_hbar(eta) along the samples of ``s``."""
+    out = np.empty(len(s.t))
+    rate_series(np.ascontiguousarray(s.z[:, 0]), np.ascontiguousarray(s.z[:, 1]),
+                np.ascontiguousarray(s.u[:, 0]), hbar, out)
+    return out
+
+
+@dataclass(frozen=True)
+class _ObserverSignals:
+    """The signals of one observer (z columns from ``za``, estimate from ``xa``) as
+    functions of sampled signals (:mod:`hgo.postprocess.dense`)."""
+
+    p: np.ndarray
+    za: int
+    xa: int
+    hbar: float  # the plant's
+
+    def e(self, s: Trajectory) -> np.ndarray:  # eta^2 - eta2, the Fig. 2 error
+        return s.xh[:, self.xa + 1] - s.z[:, 1]
+
+    def abs_e(self, s: Trajectory) -> np.ndarray:
+        return np.abs(self.e(s))
+
+    def e_x2(self, s: Trajectory) -> np.ndarray:  # x^2 - x2_true (reading C18)
+        eta1, eta2 = s.z[:, 0], s.z[:, 1]
+        return s.z[:, self.za + 1] - eta1 * eta2 / (self.hbar * eta1 + eta2)
+
+    def L(self, s: Trajectory) -> np.ndarray:
+        return s.z[:, self.za + 2]
+
+    def omega(self, s: Trajectory) -> np.ndarray:
+        out = np.empty(len(s.t))
+        omega_series(self.p, np.ascontiguousarray(s.u[:, 0]), np.ascontiguousarray(s.y[:, 0]),
+                     np.ascontiguousarray(s.z[:, self.za + 1]), out)
+        return out
+
+    def _ys(self, s: Trajectory) -> np.ndarray:
+        return np.clip(s.y[:, 0], self.p.eps1, 1.0 - self.p.eps2)
+
+    def above_high(self, s: Trajectory) -> np.ndarray:  # > 0: x^2 above x2hi(y_s)
+        return s.z[:, self.za + 1] - x2_high(self._ys(s), self.p.hbar)
+
+    def below_low(self, s: Trajectory) -> np.ndarray:  # > 0: x^2 below x2lo(y_s)
+        return x2_low(self._ys(s), self.p.eps2, self.p.hbar) - s.z[:, self.za + 1]
 
 
 @dataclass
@@ -111,75 +139,100 @@ class APAMetrics:
     steady: Sequence[Sequence[float]] = ((3.0, 10.0), (13.0, 20.0), (23.0, 35.0),
                                          (38.0, 50.0))
     thresholds: Sequence[float] = (0.1, 0.01)
+    needs_steps = True  # metrics from the integration's steps (hgo.postprocess.dense)
+
+    def check(self, system: System, solver, key: str) -> None:  # noqa: ARG002
+        """Every window inside the run, before it (``post=[0, 100]`` of a 50 s run was
+        measured over [0, 50] without a word)."""
+        spans = {"late": self.late, "post": self.post, "transient": self.transient,
+                 **{f"steady[{k}]": w for k, w in enumerate(self.steady)}}
+        for name, (_, b) in spans.items():
+            if b > solver.t_end + 1e-9:
+                raise ValueError(f"{key}.{name} = {list(spans[name])} ends after "
+                                 f"solver.t_end = {solver.t_end:g}")
 
     def apply(self, system: System, traj: Trajectory) -> PostOutput:
-        t, u, y = traj.t, np.ascontiguousarray(traj.u[:, 0]), np.ascontiguousarray(traj.y[:, 0])
-        eta1, eta2 = (np.ascontiguousarray(traj.z[:, i]) for i in (0, 1))
+        run = steps_of(traj)
         hbar = float(system.plant.p[0])
-        x2_true = eta1 * eta2 / (hbar * eta1 + eta2)
         out = PostOutput()
-        rates = {"true": np.empty_like(t)}
-        rate_series(eta1, eta2, u, hbar, rates["true"])
+        rates = {"true": _rates(traj, hbar)}
+        hbar_o = None
         rows = []
-        for obs, (za, _), (xa, _) in zip(system.observers, system.z_slices[1:],
-                                         system.xh_slices, strict=True):
+        for k, (obs, (za, _), (xa, _)) in enumerate(zip(system.observers, system.z_slices[1:],
+                                                        system.xh_slices, strict=True)):
             if not is_apa_observer(obs):
                 continue
-            if "model" not in rates:  # the observers' hbar_o (the first one's)
-                rates["model"] = np.empty_like(t)
-                rate_series(eta1, eta2, u, obs.p.hbar, rates["model"])
-            series, obs_rows = self._observer(obs, t, u, y, traj.z[:, za:za + 3],
-                                              traj.xh[:, xa + 1] - eta2, x2_true)
-            out.series += series
-            rows += obs_rows
+            if hbar_o is None:  # the observers' hbar_o (the first one's)
+                hbar_o = obs.p.hbar
+                rates["model"] = _rates(traj, hbar_o)
+            sig = _ObserverSignals(obs.p, za, xa, hbar)
+            omega = sig.omega(traj)
+            out.series += [Series(f"/observer/{obs.name}/Omega", ["Omega"], omega[:, None]),
+                           Series(f"/observer/{obs.name}/e_x2", ["e_x2"],
+                                  sig.e_x2(traj)[:, None])]
+            mine = run.observer(k) if isinstance(run, DenseRun) else run
+            rows += self._observer_rows(obs, sig, mine, traj.t_stop)
         rate_names = [f"df2dx2_{k}" for k in rates]
         out.series.append(Series(RATE, rate_names, np.column_stack(list(rates.values()))))
-        rows += self._plant_rows(t, eta1, eta2, rates)
+        plant_run = run.observer(0) if isinstance(run, DenseRun) else run  # (part 0's plant)
+        rows += self._plant_rows(plant_run, traj.t_stop, hbar, hbar_o)
         out.rows = rows
         return out
 
-    def _observer(self, obs, t, u, y, z, e, x2_true) -> tuple[list[Series], list[dict]]:
-        """Series and rows of one observer (z = its [x^1, x^2, L] columns)."""
+    def _window_rows(self, sig: _ObserverSignals, run, t_stop: float) -> dict:
+        """Means, std and rms of e over the windows (Gauss on the steps; NaN beyond the
+        horizon)."""
+        vals = {}
+        named = [("late", self.late), ("post", self.post),
+                 *((f"w{k}", ab) for k, ab in enumerate(self.steady, start=1))]
+        for name, ab in named:
+            span = _span(ab, t_stop)
+            if name == "post":
+                vals["rms_post"] = dense.rms(run, sig.e, *span) if span else math.nan
+                continue
+            vals[f"bias_{name}"] = dense.mean(run, sig.e, *span) if span else math.nan
+            vals[f"std_{name}"] = dense.std(run, sig.e, *span) if span else math.nan
+        return vals
+
+    def _observer_rows(self, obs, sig: _ObserverSignals, run, t_stop: float) -> list[dict]:
+        """The rows of one observer, every one measured on the steps."""
         p = obs.p
-        xh2, L = np.ascontiguousarray(z[:, 1]), z[:, 2]
-        omega = np.empty_like(t)
-        omega_series(p, u, y, xh2, omega)
-        e_x2 = xh2 - x2_true
-        name = obs.name
-        vals = {"bias_late": _mean(e[window(t, self.late)]),
-                "std_late": _std(e[window(t, self.late)]),
-                "rms_post": math.sqrt(_mean(e[window(t, self.post)] ** 2))}
-        for k, ab in enumerate(self.steady, start=1):
-            vals[f"bias_w{k}"] = _mean(e[window(t, ab)])
-            vals[f"std_w{k}"] = _std(e[window(t, ab)])
-        vals["peak_e_x2"] = np.abs(e_x2[window(t, self.transient)]).max()
+        whole = (0.0, t_stop)
+        vals = self._window_rows(sig, run, t_stop)
+        transient = _span(self.transient, t_stop)
+        vals["peak_e_x2"] = dense.maximum(run, lambda s: np.abs(sig.e_x2(s)), *transient)[0]
         for thr in self.thresholds:
-            vals[f"t1_{thr:g}"] = first_below(t, e, thr)
-        vals[f"ts_{min(self.thresholds):g}"] = settling(t, e, min(self.thresholds),
-                                                       self.transient)
-        vals.update(L0=L[0], L_end=L[-1], min_L=L.min(), max_L=L.max(),
-                    mean_Omega=omega.mean())
-        hbar, eps1, eps2 = p.hbar, p.eps1, p.eps2
-        ys = np.clip(y, eps1, 1.0 - eps2)
-        vals["share_sat_high"] = np.mean(xh2 > x2_high(ys, hbar))  # (array arguments)
-        vals["share_sat_low"] = np.mean(xh2 < x2_low(ys, eps2, hbar))
-        vals.update(eps1=eps1, eps2=eps2, df2max=p.df2max)
-        rows = [{"observer": name, "quantity": q, "empirical": float(v)} for q, v in vals.items()]
+            vals[f"t1_{thr:g}"] = dense.first_below(run, sig.abs_e, thr, *whole)
+        vals[f"ts_{min(self.thresholds):g}"] = dense.settles_below(
+            run, sig.abs_e, min(self.thresholds), *transient)
+        L_ends = sig.L(run.at(np.array(whole)))
+        vals.update(L0=L_ends[0], L_end=L_ends[1],
+                    min_L=dense.minimum(run, sig.L, *whole)[0],
+                    max_L=dense.maximum(run, sig.L, *whole)[0],
+                    mean_Omega=dense.mean(run, sig.omega, *whole),
+                    share_sat_high=dense.fraction_above(run, sig.above_high, 0.0, *whole),
+                    share_sat_low=dense.fraction_above(run, sig.below_low, 0.0, *whole))
+        vals.update(eps1=p.eps1, eps2=p.eps2, df2max=p.df2max)
+        rows = [{"observer": obs.name, "quantity": q, "empirical": float(v)}
+                for q, v in vals.items()]
         if p.kind in (0, 1):  # Omega <= df2max: L <= max(L(0), equilibrium at df2max)
-            bound = max(L[0], p.phi2 + p.phi3 / p.phi1 * p.df2max)
+            bound = max(L_ends[0], p.phi2 + p.phi3 / p.phi1 * p.df2max)
             rows[[r["quantity"] for r in rows].index("max_L")]["bound"] = bound
-        series = [Series(f"/observer/{name}/Omega", ["Omega"], omega[:, None]),
-                  Series(f"/observer/{name}/e_x2", ["e_x2"], e_x2[:, None])]
-        return series, rows
+        return rows
 
     @staticmethod
-    def _plant_rows(t, eta1, eta2, rates) -> list[dict]:
-        k = int(np.argmax(rates["true"]))
-        vals = {"min_eta1": eta1.min(), "min_eta2": eta2.min(),
-                "mean_rate_true": rates["true"].mean(), "max_rate_true": rates["true"][k],
-                "t_max_rate_true": t[k]}
-        if "model" in rates:
-            vals["mean_rate_model"] = rates["model"].mean()
+    def _plant_rows(run, t_stop: float, hbar: float, hbar_o: float | None) -> list[dict]:
+        whole = (0.0, t_stop)
+        max_rate, t_max = dense.maximum(run, lambda s: _rates(s, hbar), *whole)
+        vals = {"min_eta1": dense.minimum(run, lambda s: s.z[:, 0], *whole)[0],
+                "min_eta2": dense.minimum(run, lambda s: s.z[:, 1], *whole)[0],
+                "mean_rate_true": dense.mean(run, lambda s: _rates(s, hbar), *whole),
+                "max_rate_true": max_rate, "t_max_rate_true": t_max}
+        vals["mean_abs_rate_true"] = dense.mean(run, lambda s: np.abs(_rates(s, hbar)), *whole)
+        if hbar_o is not None:
+            vals["mean_rate_model"] = dense.mean(run, lambda s: _rates(s, hbar_o), *whole)
+            vals["mean_abs_rate_model"] = dense.mean(run, lambda s: np.abs(_rates(s, hbar_o)),
+                                                     *whole)
         return [{"observer": "plant", "quantity": q, "empirical": float(v)}
                 for q, v in vals.items()]
 

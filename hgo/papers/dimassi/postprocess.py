@@ -8,7 +8,8 @@ series
     cascade uses), ``/observer/<name>/aux`` (z = H x), ``/observer/<name>/theta_error``
     (th^ - theta), ``/observer/<name>/lyapunov`` ([V, R^2] of (18), (23)).
 rows (window W = [window_start, t_end], default [10, 20] s; "for good" times are the last
-    exit from the band, linearly interpolated between output samples; NaN: never settles)
+    exit from the band, located on the steps; NaN: never settles, i.e. outside the band
+    somewhere in W)
     HGO: ``zh<i><j>_peak`` / ``t_peak_zh<i><j>`` (raw |z_hk| peak over [0, T(eps)], from a
     noise-free re-simulation on a T(eps)/5000 grid), ``t_sat_first`` / ``t_sat_last``
     (saturation active, sampled after every integration step by the observer over the whole
@@ -33,8 +34,11 @@ rows (window W = [window_start, t_end], default [10, 20] s; "for good" times are
 
 The readings in force: ``psi_at`` of the observer (A2: K_psi = 0 under ``y``, the model's
 K_psi under ``xhat``), P, Q the maximiser of (8)-(9) (A15), beta per ``beta`` (A11).
-Window metrics use the output grid; ``dt_out`` = 1e-3 s is fine enough (a test divides it
-by 10).
+Every row is measured from the integration's steps and their continuous extension, not
+from the output grid (:mod:`hgo.postprocess.dense`: means and RMS by Gauss-Legendre on each
+step, crossings by root finding, maxima refined between the steps): a test checks they do
+not move with ``dt_out``. A settling time ("for good") is the last exit from the band; NaN
+("never") when the signal is outside the band anywhere in the window W.
 """
 
 from __future__ import annotations
@@ -49,26 +53,61 @@ from hgo.engine.system import System
 from hgo.observers import adaptive_cascade as ac
 from hgo.outputs.recording import Series
 from hgo.plants.robot_arm import dimassi_psi
-from hgo.postprocess import PostOutput
+from hgo.postprocess import PostOutput, dense
+from hgo.postprocess.dense import steps_of
 
 
-def settle_time(t: np.ndarray, err: np.ndarray, band: float) -> float:
-    """Time after which |err| < band for good (last exit, interpolated); NaN: never;
-    0 if it starts inside and stays."""
-    out = np.abs(err) >= band
-    if out[-1]:
-        return math.nan
-    idx = np.flatnonzero(out)
-    if idx.size == 0:
-        return 0.0
-    k = idx[-1]
-    a, b = abs(err[k]), abs(err[k + 1])
-    frac = (a - band) / (a - b) if a != b else 0.0
-    return float(t[k] + frac * (t[k + 1] - t[k]))
+def settle_time(run, signal, band: float, t_window: float, t_end: float) -> float:
+    """The time after which |signal| < band for good (its last exit from the band, located
+    on the steps); NaN ("never") if it is outside the band anywhere in the window
+    [t_window, t_end] (where it should have settled); 0 if it never leaves."""
+    t = dense.settles_below(run, lambda s: np.abs(signal(s)), band, 0.0, t_end)
+    return t if t < t_window else math.nan
 
 
-def _trapz_rms(t: np.ndarray, v: np.ndarray) -> float:
-    return float(math.sqrt(np.trapezoid(v * v, t) / (t[-1] - t[0])))
+@dataclass(frozen=True)
+class _Signals:
+    """The signals of one adaptive-cascade observer as functions of sampled signals
+    (:mod:`hgo.postprocess.dense`): plant x, e = x^ - x, z = H x, z_h, its saturation,
+    theta^."""
+
+    nx: int
+    za: int
+    blk: dict
+
+    @property
+    def sizes(self) -> tuple[int, int, int]:
+        return int(self.blk["n"]), int(self.blk["N"]), int(self.blk["q"])
+
+    def x(self, s: Trajectory) -> np.ndarray:
+        return s.z[:, :self.nx]
+
+    def zh(self, s: Trajectory) -> np.ndarray:
+        return s.z[:, self.za:self.za + self.sizes[1]]
+
+    def xh(self, s: Trajectory) -> np.ndarray:
+        n, nn, _ = self.sizes
+        return s.z[:, self.za + nn:self.za + nn + n]
+
+    def th(self, s: Trajectory) -> np.ndarray:
+        n, nn, nq = self.sizes
+        return s.z[:, self.za + nn + n:self.za + nn + n + nq]
+
+    def e(self, s: Trajectory) -> np.ndarray:
+        return self.xh(s) - self.x(s)
+
+    def zs(self, s: Trajectory) -> np.ndarray:
+        """What the cascade uses: y (ideal), or the direct outputs and the saturated z_h."""
+        blk = self.blk
+        if blk["ideal"] > 0.5:
+            return s.y[:, :self.sizes[1]]
+        return np.where(blk["direct"] > 0.5, s.y[:, blk["out"].astype(int)],
+                        np.clip(self.zh(s), -blk["S"], blk["S"]))
+
+    def zerr(self, s: Trajectory) -> np.ndarray:
+        """z - z_h (z - z^s for the ideal observer)."""
+        z = self.x(s) @ self.blk["H"].T
+        return z - (self.zs(s) if self.blk["ideal"] > 0.5 else self.zh(s))
 
 
 def psi_rows(p, xa: np.ndarray, u: np.ndarray) -> np.ndarray:
@@ -112,6 +151,7 @@ class DHLMMetrics:
     theta: list[float] | None = None
     theory: bool = True
     beta: str = "measured"
+    needs_steps = True  # metrics from the integration's steps (hgo.postprocess.dense)
 
     def __post_init__(self) -> None:
         key = "postprocess.dhlm"
@@ -122,6 +162,12 @@ class DHLMMetrics:
             raise ValueError(f"{key}.state_bands and theta_pcts must be > 0")
         if self.beta not in ("measured", "analytic"):
             raise ValueError(f"{key}.beta must be 'measured' or 'analytic', got '{self.beta}'")
+
+    def check(self, system: System, solver, key: str) -> None:  # noqa: ARG002
+        """``window_start`` inside the run, before it (checked only after the run before)."""
+        if not self.window_start < solver.t_end:
+            raise ValueError(f"{key}.window_start must be in (0, t_end={solver.t_end:g}), "
+                             f"got {self.window_start}")
 
     def true_theta(self, system: System) -> np.ndarray:
         if self.theta is not None:
@@ -148,105 +194,112 @@ class DHLMMetrics:
         obs = system.observers[k]
         name = obs.name
         blk = ac.unpack(obs.p)
-        n, nn, nq = int(blk["n"]), int(blk["N"]), int(blk["q"])
-        eps = blk["eps"]
-        za, _ = system.z_slices[k + 1]
-        da, _ = system.d_slices[k]
-        t, plant = traj.t, system.plant
-        x = traj.z[:, :plant.nx]
-        zst = traj.z[:, za:]
-        zh, xh, th = zst[:, :nn], zst[:, nn:nn + n], zst[:, nn + n:nn + n + nq]
+        sig = _Signals(system.plant.nx, system.z_slices[k + 1][0], blk)
+        n, nn, nq = sig.sizes
         theta = self.true_theta(system)
-        H = blk["H"]
-        z = x @ H.T
-        ideal = blk["ideal"] > 0.5
-        if ideal:
-            zs = traj.y[:, :nn]
-        else:
-            zs = np.where(blk["direct"] > 0.5, traj.y[:, blk["out"].astype(int)],
-                          np.clip(zh, -blk["S"], blk["S"]))
         zn = obs.state_names[:nn]
         out.series += [
-            Series(f"/observer/{name}/hgo/raw", zn, zh),
-            Series(f"/observer/{name}/hgo/saturated", [f"{s}_sat" for s in zn], zs),
-            Series(f"/observer/{name}/aux", [f"z{s[2:]}" for s in zn], z),
+            Series(f"/observer/{name}/hgo/raw", zn, sig.zh(traj)),
+            Series(f"/observer/{name}/hgo/saturated", [f"{s}_sat" for s in zn], sig.zs(traj)),
+            Series(f"/observer/{name}/aux", [f"z{s[2:]}" for s in zn],
+                   sig.x(traj) @ blk["H"].T),
             Series(f"/observer/{name}/theta_error", [f"theta_err{i + 1}" for i in range(nq)],
-                   th - theta)]
-        rows: list[tuple[str, float, float | None]] = []
-        W = t >= self.window_start - 1e-12
-        tw = t[W]
-        # --- HGO (6), (13)-(15)
+                   sig.th(traj) - theta)]
+        rows = self._hgo_rows(system, traj, k, zn, blk["ideal"] > 0.5, blk, blk["eps"])
+        rows += self._state_rows(sig, traj, n)
+        rows += self._theta_rows(sig, traj, theta, nq)
+        if self.theory:
+            beta_meas = next(v for q, v, _ in rows if q == "beta_measured")
+            rows += self._theory(system, traj, obs, sig, theta, beta_meas, out)
+        for q, v, b in rows:
+            out.rows.append({"observer": name, "quantity": q, "empirical": v, "bound": b})
+
+    def _hgo_rows(self, system, traj, k, zn, ideal, blk, eps) -> list:
+        """Peaks, saturation times, end of peaking, eta of (13), lags of the HGO (6)."""
+        run, T = steps_of(traj), traj.t_stop
+        W = (self.window_start, T)
+        sig = _Signals(system.plant.nx, system.z_slices[k + 1][0], blk)
+        da, _ = system.d_slices[k]
         d = traj.d[-1, da:]
-        zerr = z - (zs if ideal else zh)
-        if not ideal:
-            rows += self._peaks(system, k, zn, eps)
+        nn = sig.sizes[1]
+        rows = [] if ideal else self._peaks(system, k, zn, eps)
         rows += [("t_sat_first", math.nan if d[0] < 0 else float(d[0]), None),
                  ("t_sat_last", math.nan if d[1] < 0 else float(d[1]), None)]
         if not ideal:
-            rows.append(("t_end_peaking", max(settle_time(t, zerr[:, j], self.peak_band)
-                                              for j in range(nn)), None))
-        h_abs = self._h_abs(system, traj, blk)
+            rows.append(("t_end_peaking", max(
+                settle_time(run, lambda s, j=j: sig.zerr(s)[:, j], self.peak_band, *W)
+                for j in range(nn)), None))
         for i, g in enumerate(self._block_gains(blk)):
             poles = np.linalg.eigvals(ac.hgo_matrix(g)) / eps
             rows += [(f"hgo{i + 1}_pole_slowest_re", float(poles.real.max()), None),
                      (f"hgo{i + 1}_pole_fastest_re", float(poles.real.min()), None)]
         T_eps = self.T_eps_factor * eps
-        eta = self._eta(zerr, blk, eps)
-        late = t >= T_eps
-        beta_meas = float(np.max(np.linalg.norm(eta[late], axis=1)) / eps)
-        rows += [("T_eps", T_eps, None), ("beta_measured", beta_meas, None)]
-        lags = self._lags(obs, blk, eps, np.max(h_abs[W], axis=0))
+        beta_meas = dense.maximum(run, lambda s: np.linalg.norm(
+            self._eta(sig.zerr(s), blk, eps), axis=1), T_eps, T)[0] / eps
+        rows += [("T_eps", T_eps, None), ("beta_measured", float(beta_meas), None)]
+        h_max = [dense.maximum(run, lambda s, j=j: self._h_abs(system, s, blk)[:, j], *W)[0]
+                 for j in range(nn)]
+        lags = self._lags(None, blk, eps, np.array(h_max))
         for j in range(nn):
-            rows.append((f"max_abs_zerr{j + 1}_W", float(np.max(np.abs(zerr[W, j]))),
-                         None if ideal else float(lags[j])))
-        # --- states
-        e = xh - x
+            peak = dense.maximum(run, lambda s, j=j: np.abs(sig.zerr(s)[:, j]), *W)[0]
+            rows.append((f"max_abs_zerr{j + 1}_W", float(peak), None if ideal else float(lags[j])))
+        return rows
+
+    def _state_rows(self, sig: _Signals, traj: Trajectory, n: int) -> list:
+        """max |e_i| (and when), on W too, RMS e_i on W, settling of ||e||."""
+        run, T = steps_of(traj), traj.t_stop
+        W = (self.window_start, T)
+        rows = []
         for i in range(n):
-            a = np.abs(e[:, i])
-            rows += [(f"max_abs_e{i + 1}", float(a.max()), None),
-                     (f"t_max_abs_e{i + 1}", float(t[a.argmax()]), None),
-                     (f"max_abs_e{i + 1}_W", float(a[W].max()), None),
-                     (f"rms_e{i + 1}_W", _trapz_rms(tw, e[W, i]), None)]
-        enorm = np.linalg.norm(e, axis=1)
-        rows += [(f"t_settle_e_{b:g}", settle_time(t, enorm, b), None) for b in self.state_bands]
-        # --- parameters
-        rel = (th - theta) / np.abs(theta)
+            abs_e = lambda s, i=i: np.abs(sig.e(s)[:, i])  # noqa: E731
+            peak, t_peak = dense.maximum(run, abs_e, 0.0, T)
+            rows += [(f"max_abs_e{i + 1}", peak, None), (f"t_max_abs_e{i + 1}", t_peak, None),
+                     (f"max_abs_e{i + 1}_W", dense.maximum(run, abs_e, *W)[0], None),
+                     (f"rms_e{i + 1}_W", dense.rms(run, lambda s, i=i: sig.e(s)[:, i], *W),
+                      None)]
+        enorm = lambda s: np.linalg.norm(sig.e(s), axis=1)  # noqa: E731
+        return rows + [(f"t_settle_e_{b:g}", settle_time(run, enorm, b, *W), None)
+                       for b in self.state_bands]
+
+    def _theta_rows(self, sig: _Signals, traj: Trajectory, theta: np.ndarray, nq: int) -> list:
+        """theta^ at the end, its mean / min / max on W and over the run, the RMS relative
+        error on W, settling within pct % and the share of W within 1 and 5 %."""
+        run, T = steps_of(traj), traj.t_stop
+        W = (self.window_start, T)
+        end = sig.th(run.at(np.array([T])))[0]
+        rows = []
         for i in range(nq):
-            s = f"theta_hat{i + 1}"
-            rows += [(f"{s}_end", float(th[-1, i]), None),
-                     (f"mean_{s}_W", float(np.trapezoid(th[W, i], tw) / (tw[-1] - tw[0])), None),
-                     (f"min_{s}_W", float(th[W, i].min()), None),
-                     (f"max_{s}_W", float(th[W, i].max()), None),
-                     (f"min_{s}", float(th[:, i].min()), None),
-                     (f"max_{s}", float(th[:, i].max()), None),
-                     (f"rms_rel_theta_err{i + 1}_W", _trapz_rms(tw, rel[W, i]), None)]
-            for pct in self.theta_pcts:
-                rows += [(f"t_settle_theta{i + 1}_{pct:g}pct",
-                          settle_time(t, rel[:, i], pct / 100), None)]
-            for pct in (1.0, 5.0):
-                inside = (np.abs(rel[W, i]) < pct / 100).astype(float)
-                rows.append((f"frac_W_theta{i + 1}_within_{pct:g}pct",
-                             float(np.trapezoid(inside, tw) / (tw[-1] - tw[0])), None))
-        if self.theory:
-            rows += self._theory(system, traj, obs, blk, theta, x, e, th, beta_meas, T_eps,
-                                 out, h_abs)
-        for q, v, b in rows:
-            out.rows.append({"observer": name, "quantity": q, "empirical": v, "bound": b})
+            s_ = f"theta_hat{i + 1}"
+            th = lambda s, i=i: sig.th(s)[:, i]  # noqa: E731
+            rel = lambda s, i=i: (sig.th(s)[:, i] - theta[i]) / abs(theta[i])  # noqa: E731
+            rows += [(f"{s_}_end", float(end[i]), None),
+                     (f"mean_{s_}_W", dense.mean(run, th, *W), None),
+                     (f"min_{s_}_W", dense.minimum(run, th, *W)[0], None),
+                     (f"max_{s_}_W", dense.maximum(run, th, *W)[0], None),
+                     (f"min_{s_}", dense.minimum(run, th, 0.0, T)[0], None),
+                     (f"max_{s_}", dense.maximum(run, th, 0.0, T)[0], None),
+                     (f"rms_rel_theta_err{i + 1}_W", dense.rms(run, rel, *W), None)]
+            rows += [(f"t_settle_theta{i + 1}_{pct:g}pct", settle_time(run, rel, pct / 100, *W),
+                      None) for pct in self.theta_pcts]
+            rows += [(f"frac_W_theta{i + 1}_within_{pct:g}pct", dense.fraction_above(
+                run, lambda s, rel=rel, pct=pct: pct / 100 - np.abs(rel(s)), 0.0, *W), None)
+                for pct in (1.0, 5.0)]
+        return rows
 
     def _peaks(self, system: System, k: int, zn: list[str], eps: float) -> list:
         """Raw |z_hk| peaks and their times from a noise-free re-simulation over
-        [0, T(eps)] on a grid of T(eps)/5000 (DOP853 1e-10/1e-12): the peak lasts a few eps,
-        far below the run's output grid."""
+        [0, T(eps)] (DOP853 1e-10/1e-12, h_max T(eps)/100): the peak lasts a few eps, far
+        below the run's output grid; located on that run's steps."""
         T_eps = self.T_eps_factor * eps
-        solver = SolverSettings(t_end=T_eps, dt_out=T_eps / 5000, method="dop853",
-                                h_max=T_eps / 100, rtol=1e-10, atol=1e-12)
+        solver = SolverSettings(t_end=T_eps, dt_out=T_eps / 100, method="dop853",
+                                h_max=T_eps / 100, rtol=1e-10, atol=1e-12, dense_steps=True)
         fine = simulate(system, solver, no_noise(len(system.plant.output_names)))
         za, _ = system.z_slices[k + 1]
         rows = []
         for j, s in enumerate(zn):
-            a = np.abs(fine.z[:, za + j])
-            rows += [(f"{s}_peak", float(a.max()), None),
-                     (f"t_peak_{s}", float(fine.t[a.argmax()]), None)]
+            peak, t_peak = dense.maximum(fine.dense, lambda r, j=j: np.abs(r.z[:, za + j]),
+                                         0.0, fine.t_stop)
+            rows += [(f"{s}_peak", peak, None), (f"t_peak_{s}", t_peak, None)]
         return rows
 
     @staticmethod
@@ -302,9 +355,11 @@ class DHLMMetrics:
             j += qi
         return lags
 
-    def _theory(self, system, traj, obs, blk, theta, x, e, th, beta_meas, T_eps, out, h_abs):
+    def _theory(self, system, traj, obs, sig: _Signals, theta, beta_meas, out):
         from hgo.papers.dimassi import theory
 
+        blk = sig.blk
+        run, T = steps_of(traj), traj.t_stop
         A, B, H, L, M = blk["A"], blk["B"], blk["H"], blk["L"], blk["M"]
         K_phi, K_psi = blk["K_phi"], (blk["K_psi"] if blk["psi_at"] > 0.5 else 0.0)
         chk = theory.check_conditions(A, B, H, L, M)
@@ -321,11 +376,12 @@ class DHLMMetrics:
         rows += [("P11", float(chk.P[0, 0]), None),
                  ("margin10", chk.margin10(nB, K_phi, K_psi * np.linalg.norm(theta)), None),
                  ("margin10_tight", chk.margin10(nB, K_phi, tight), None)]
-        psi = psi_rows(obs.p, x, traj.u)
-        psi_max = float(np.max(np.linalg.norm(psi.reshape(len(psi), -1), axis=1)))
-        u_max = float(np.max(np.abs(traj.u)))
+        psi_max = dense.maximum(run, lambda s: np.linalg.norm(
+            psi_rows(obs.p, sig.x(s), s.u).reshape(len(s.t), -1), axis=1), 0.0, T)[0]
+        u_max = dense.maximum(run, lambda s: np.max(np.abs(s.u), axis=1), 0.0, T)[0]
         rows += [("u_max", u_max, None), ("psi_max_bound", float(np.hypot(1.0, u_max)), None)]
-        h_max = float(np.max(h_abs))
+        h_max = max(dense.maximum(run, lambda s, j=j: self._h_abs(system, s, blk)[:, j],
+                                  0.0, T)[0] for j in range(int(blk["N"])))
         beta_an = max(theory.beta_analytic(g, h_max) for g in self._block_gains(blk))
         args = (chk.P, chk.Q, L, M, B, theta, blk["delta"], blk["sigma"], blk["eps"])
         thm = theory.theorem1(*args, beta_meas, psi_max, K_phi, K_psi)
@@ -335,12 +391,17 @@ class DHLMMetrics:
                  ("K1", thm.K1, None), ("K2", thm.K2, None), ("K3", thm.K3, None),
                  ("R2", thm.R2, None), ("R2_beta_analytic", thm_an.R2, None)]
         use = thm if self.beta == "measured" else thm_an
-        err_th = theta - th
-        V = np.einsum("ti,ij,tj->t", e, chk.P, e) + np.sum(err_th ** 2, axis=1) / blk["delta"]
+
+        def lyapunov(s: Trajectory) -> np.ndarray:  # V of (18)
+            e, err_th = sig.e(s), theta - sig.th(s)
+            return (np.einsum("ti,ij,tj->t", e, chk.P, e)
+                    + np.sum(err_th ** 2, axis=1) / blk["delta"])
+
+        V = lyapunov(traj)
         out.series.append(Series(f"/observer/{obs.name}/lyapunov", ["V", "R2"],
                                  np.column_stack([V, np.full_like(V, use.R2)])))
-        late = traj.t >= T_eps
-        rows.append(("max_V_after_T_eps", float(np.max(V[late])),
+        T_eps = self.T_eps_factor * blk["eps"]
+        rows.append(("max_V_after_T_eps", dense.maximum(run, lyapunov, T_eps, T)[0],
                      use.R2 if math.isfinite(use.R2) else None))
         return rows
 

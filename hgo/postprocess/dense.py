@@ -1,0 +1,360 @@
+"""Metrics from the integration, not from the output grid (issue 25, item 4).
+
+A run made with ``SolverSettings.dense_steps`` carries its accepted steps with their
+continuous extensions (:class:`hgo.engine.simulate.DenseRun`): every signal at any instant.
+The functions here measure a scalar signal ``signal(traj) -> array`` (a function of the
+run's signals sampled at some instants, e.g. ``lambda s: s.xh[:, 1] - s.z[:, 1]``) over a
+window [a, b] from those steps only, so that the numbers do not move with ``dt_out``:
+
+* :func:`integral`, :func:`mean`, :func:`rms`, :func:`std`: 3-point Gauss-Legendre on
+  each step's part of the window (the rule the kernel's window metrics use,
+  ``kernel_template._window_step``), pieces halved where the halves disagree (kinks);
+  :class:`Cumulative` (the integral up to any instant) by the same rule, and on it
+  :func:`window_mean_max` (the largest sliding-window mean) and :func:`max_rise`;
+* :func:`first_below`, :func:`settles_below`, :func:`fraction_above`: sign changes of
+  ``signal - level`` between the scan points (step ends and the Gauss nodes of every
+  step), each crossing located by bisection on the continuous extension (to 1e-12 s, all
+  crossings of a window at once);
+* :func:`maximum`: the largest scan point, refined by a bounded search on the continuous
+  extension between its neighbours.
+
+A crossing in and out again between two scan points of one step is not seen (the scan
+has 4 points per step; the steps are short where the signals move).
+
+:func:`steps_of` gives a trajectory's steps; a trajectory without them (an ensemble
+member's record, RK4) gets :class:`GridRun`, its output samples joined by straight lines:
+the same functions, measured on the grid.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+from hgo.engine.simulate import DenseRun, Trajectory
+
+Signal = Callable[[Trajectory], np.ndarray]
+NODES, WEIGHTS = np.polynomial.legendre.leggauss(3)  # on [-1, 1]
+NODES01, WEIGHTS01 = 0.5 * (NODES + 1.0), 0.5 * WEIGHTS  # on [0, 1]
+XTOL = 1e-12  # seconds: the crossing instants' tolerance
+QTOL = 1e-9  # signal units: a piece's quadrature is accepted when its halves agree to QTOL
+MAX_HALVINGS = 12
+
+
+class GridRun:
+    """A trajectory's output samples as a :class:`DenseRun`-like object: the signals
+    interpolated linearly between the samples, the samples as the step ends."""
+
+    FIELDS = ("z", "d", "y", "m", "u", "xh")
+
+    def __init__(self, traj: Trajectory) -> None:
+        self.traj = traj
+
+    def at(self, ts: np.ndarray) -> Trajectory:
+        tr = self.traj
+        cols = {f: np.column_stack([np.interp(ts, tr.t, c) for c in getattr(tr, f).T])
+                if getattr(tr, f).shape[1] else np.zeros((len(ts), 0)) for f in self.FIELDS}
+        return Trajectory(np.asarray(ts, float), **cols, status=0,
+                          t_stop=float(ts[-1]) if len(ts) else 0.0, acc=tr.acc)
+
+    def boundaries(self, a: float, b: float) -> np.ndarray:
+        t = self.traj.t
+        return np.unique(np.concatenate([[a, b], t[(t > a) & (t < b)]]))
+
+
+def steps_of(traj: Trajectory) -> DenseRun | GridRun:
+    """The run's steps (``traj.dense``), or its output grid when it kept none."""
+    return traj.dense if traj.dense is not None else GridRun(traj)
+
+
+def _values(run: DenseRun, signal: Signal, ts: np.ndarray) -> np.ndarray:
+    return np.asarray(signal(run.at(np.atleast_1d(np.asarray(ts, float)))), float)
+
+
+def _at(run: DenseRun, signal: Signal, t: float) -> float:
+    return float(_values(run, signal, np.array([t]))[0])
+
+
+def _cached(run, key: tuple, make: Callable[[], tuple]) -> tuple:
+    """``make()`` once per run and key (the signals sampled at a window's points serve
+    every metric of that window)."""
+    cache = run.__dict__.setdefault("_dense_samples", {})
+    if key not in cache:
+        cache[key] = make()
+    return cache[key]
+
+
+def _gauss(run: DenseRun, a: float, b: float) -> tuple[np.ndarray, np.ndarray, Trajectory]:
+    """The Gauss nodes of every step's part of [a, b], their weights (sum: b - a) and the
+    signals there."""
+    def make():
+        edges = run.boundaries(a, b)
+        lo, width = edges[:-1], np.diff(edges)
+        ts = (lo[:, None] + width[:, None] * NODES01[None, :]).ravel()
+        return ts, (width[:, None] * WEIGHTS01[None, :]).ravel(), run.at(ts)
+
+    return _cached(run, ("gauss", a, b), make)
+
+
+def _halves(run: DenseRun, a: float, b: float) -> tuple[Trajectory, Trajectory]:
+    """The signals at the Gauss nodes of both halves of every step's part of [a, b]: the
+    first refinement of :func:`integral`, shared by every signal of the window."""
+    def make():
+        edges = run.boundaries(a, b)
+        lo, half = edges[:-1], 0.5 * np.diff(edges)
+        return tuple(run.at((start[:, None] + half[:, None] * NODES01[None, :]).ravel())
+                     for start in (lo, lo + half))
+
+    return _cached(run, ("halves", a, b), make)
+
+
+def _scan(run: DenseRun, a: float, b: float) -> tuple[np.ndarray, Trajectory]:
+    """The scan points of [a, b] (the step ends and each step's Gauss nodes, sorted) and
+    the signals there."""
+    def make():
+        ts = np.union1d(run.boundaries(a, b), _gauss(run, a, b)[0])
+        return ts, run.at(ts)
+
+    return _cached(run, ("scan", a, b), make)
+
+
+def _roots(run: DenseRun, signal: Signal, level: float, lo: np.ndarray,
+           hi: np.ndarray) -> np.ndarray:
+    """The crossings of ``level`` in the brackets [lo, hi] (signal - level changes sign
+    across each), all at once: bisection on the continuous extension to XTOL."""
+    lo, hi = np.array(lo, float), np.array(hi, float)
+    g_lo = _values(run, signal, lo) - level
+    while lo.size and np.max(hi - lo) > XTOL:
+        mid = 0.5 * (lo + hi)
+        g_mid = _values(run, signal, mid) - level
+        left = np.sign(g_mid) == np.sign(g_lo)
+        lo, g_lo = np.where(left, mid, lo), np.where(left, g_mid, g_lo)
+        hi = np.where(left, hi, mid)
+        if np.all(hi - lo <= XTOL):
+            break
+    return 0.5 * (lo + hi)
+
+
+def _gauss_pieces(run: DenseRun, signal: Signal, lo: np.ndarray,
+                  width: np.ndarray) -> np.ndarray:
+    """3-point Gauss-Legendre integral of ``signal`` on each piece [lo, lo + width]."""
+    ts = (lo[:, None] + width[:, None] * NODES01[None, :]).ravel()
+    v = _values(run, signal, ts).reshape(lo.size, 3)
+    return width * (v @ WEIGHTS01)
+
+
+def _refine(run: DenseRun, signal: Signal, lo: np.ndarray, width: np.ndarray,
+            whole: np.ndarray, halves: tuple[Trajectory, Trajectory] | None = None
+            ) -> np.ndarray:
+    """The integral of ``signal`` on each piece [lo, lo + width] whose one-rule value is
+    ``whole``: each piece halved until its halves agree with it to QTOL (signal units)
+    times its length, at most MAX_HALVINGS times (``halves``: the signals at the Gauss
+    nodes of the first halves, already sampled)."""
+    out = np.zeros(lo.size)
+    owner = np.arange(lo.size)  # the piece each sub-piece belongs to
+    for level in range(MAX_HALVINGS):
+        if not lo.size:
+            return out
+        half = 0.5 * width
+        if level == 0 and halves is not None:
+            left, right = ((np.asarray(signal(h), float).reshape(lo.size, 3) @ WEIGHTS01)
+                           * half for h in halves)
+        else:
+            left = _gauss_pieces(run, signal, lo, half)
+            right = _gauss_pieces(run, signal, lo + half, half)
+        split = left + right
+        done = np.abs(split - whole) <= QTOL * width
+        np.add.at(out, owner[done], split[done])
+        keep = ~done
+        lo = np.concatenate([lo[keep], lo[keep] + half[keep]])
+        width = np.concatenate([half[keep], half[keep]])
+        whole = np.concatenate([left[keep], right[keep]])
+        owner = np.concatenate([owner[keep], owner[keep]])
+    np.add.at(out, owner, whole)
+    return out
+
+
+def integral(run: DenseRun, signal: Signal, a: float, b: float) -> float:
+    """int_a^b signal dt: 3-point Gauss-Legendre on each step's part of [a, b], each piece
+    halved until the halves agree with the whole to QTOL (signal units) times its length,
+    at most MAX_HALVINGS times: the signals have kinks inside steps (saturations of an
+    estimate), where one Gauss rule per step is off by O(h^2) of the slope's jump."""
+    _, _, s = _gauss(run, a, b)
+    edges = run.boundaries(a, b)
+    lo, width = edges[:-1], np.diff(edges)
+    whole = (np.asarray(signal(s), float).reshape(lo.size, 3) @ WEIGHTS01) * width
+    # every step's halves: sampled once for all signals of the window
+    return float(np.sum(_refine(run, signal, lo, width, whole, _halves(run, a, b))))
+
+
+class Cumulative:
+    """I(t) = int_a^t signal for any t in [a, b], from the steps: :func:`integral`'s rule on
+    every step's part of [a, b] (summed into I at the step ends), plus the same rule on
+    [last step end, t] (a piece of one step: the extension is smooth there but for kinks,
+    which the halving resolves). Each value is the integral to about QTOL (b - a), for any
+    t, whatever the output grid."""
+
+    def __init__(self, run: DenseRun, signal: Signal, a: float, b: float) -> None:
+        self.run, self.signal, self.a, self.b = run, signal, float(a), float(b)
+        self.edges = run.boundaries(a, b)
+        lo, width = self.edges[:-1], np.diff(self.edges)
+        pieces = _refine(run, signal, lo, width, _gauss_pieces(run, signal, lo, width))
+        self.at_edges = np.concatenate([[0.0], np.cumsum(pieces)])
+
+    def __call__(self, ts: np.ndarray) -> np.ndarray:
+        ts = np.clip(np.atleast_1d(np.asarray(ts, float)), self.a, self.b)
+        k = np.clip(np.searchsorted(self.edges, ts, side="right") - 1, 0,
+                    self.edges.size - 2)
+        lo, width = self.edges[k], ts - self.edges[k]
+        part = _refine(self.run, self.signal, lo, width,
+                       _gauss_pieces(self.run, self.signal, lo, width))
+        return self.at_edges[k] + part
+
+
+class Remembering:
+    """A run whose ``at`` remembers the samples at each array of instants it was asked for:
+    for measuring many signals of one run on the same points one after the other (each
+    new :class:`Cumulative` samples the same Gauss nodes)."""
+
+    def __init__(self, run: DenseRun) -> None:
+        self.run, self._seen = run, {}
+
+    def at(self, ts: np.ndarray) -> Trajectory:
+        ts = np.ascontiguousarray(ts, float)
+        key = ts.tobytes()
+        if key not in self._seen:
+            self._seen[key] = self.run.at(ts)
+        return self._seen[key]
+
+    def boundaries(self, a: float, b: float) -> np.ndarray:
+        return self.run.boundaries(a, b)
+
+
+class _Pair:
+    """The run seen at (t, t + shift) at once: ``at(ts)`` gives both samples."""
+
+    def __init__(self, run: DenseRun, shift: float) -> None:
+        self.run, self.shift = run, shift
+
+    def at(self, ts: np.ndarray) -> tuple[Trajectory, Trajectory]:
+        return self.run.at(ts), self.run.at(ts + self.shift)
+
+
+def window_mean_max(cum: Cumulative, window: float, a: float, b: float
+                    ) -> tuple[float, float]:
+    """(max over s in [a, b] of m(s) = (I(s + window) - I(s)) / window, its s), I = ``cum``
+    (b + window <= cum.b). m' = (signal(s + window) - signal(s)) / window: between the
+    points where s or s + window is a step end, both ends move inside one step each, so
+    m is as smooth as the extension. m is evaluated (exactly, :class:`Cumulative`) at
+    those points and at the Gauss nodes between them, and at every interior maximum:
+    each sign change of m' from + to - located by bisection to XTOL. A maximum is
+    missed only where m' goes + - + - between two scan points (as for crossings)."""
+    ends = cum.edges
+    inner = np.concatenate([ends, ends - window])
+    cand = np.unique(np.concatenate([[a, b], inner[(inner > a) & (inner < b)]]))
+    lo, width = cand[:-1], np.diff(cand)
+    scan = np.union1d(cand, (lo[:, None] + width[:, None] * NODES01[None, :]).ravel())
+    pair = _Pair(cum.run, window)
+
+    def slope(p: tuple[Trajectory, Trajectory]) -> np.ndarray:
+        return np.asarray(cum.signal(p[1]), float) - np.asarray(cum.signal(p[0]), float)
+
+    g = _values(pair, slope, scan)
+    k = np.flatnonzero((g[:-1] > 0) & (g[1:] <= 0))
+    points = np.concatenate([scan, _roots(pair, slope, 0.0, scan[k], scan[k + 1])])
+    means = (cum(points + window) - cum(points)) / window
+    best = int(np.argmax(means))
+    return float(means[best]), float(points[best])
+
+
+def max_rise(cum: Cumulative, level: float, a: float, b: float) -> float:
+    """max over a <= s <= t <= b of int_s^t (signal - level) = I(t) - I(s) - level (t - s),
+    I = ``cum``: J = I - level t is monotone between the crossings of ``level`` by the
+    signal, so its largest rise is that of its values at the scan points of [a, b] and
+    those crossings (located by bisection to XTOL), evaluated exactly."""
+    ts, s = _scan(cum.run, a, b)
+    v = np.asarray(cum.signal(s), float) - level
+    k = np.flatnonzero(np.sign(v[:-1]) != np.sign(v[1:]))
+    points = np.sort(np.concatenate([ts, _roots(cum.run, cum.signal, level, ts[k],
+                                                ts[k + 1])]))
+    J = cum(points) - level * points
+    return float(np.max(J - np.minimum.accumulate(J)))
+
+
+def mean(run: DenseRun, signal: Signal, a: float, b: float) -> float:
+    """(1 / (b - a)) int_a^b signal dt (:func:`integral`)."""
+    return integral(run, signal, a, b) / (b - a)
+
+
+def rms(run: DenseRun, signal: Signal, a: float, b: float) -> float:
+    """sqrt of the mean of signal^2 over [a, b]."""
+    return math.sqrt(mean(run, lambda s: signal(s) ** 2, a, b))
+
+
+def std(run: DenseRun, signal: Signal, a: float, b: float) -> float:
+    """The standard deviation over [a, b] in time: sqrt(mean((s - mean s)^2))."""
+    m = mean(run, signal, a, b)
+    return math.sqrt(max(mean(run, lambda x: (signal(x) - m) ** 2, a, b), 0.0))
+
+
+def first_below(run: DenseRun, signal: Signal, level: float, a: float, b: float) -> float:
+    """The first t in [a, b] with signal(t) < level; NaN if none."""
+    ts, s = _scan(run, a, b)
+    below = np.flatnonzero(np.asarray(signal(s)) < level)
+    if not below.size:
+        return math.nan
+    k = int(below[0])
+    if k == 0:
+        return float(ts[0])
+    return float(_roots(run, signal, level, ts[k - 1:k], ts[k:k + 1])[0])
+
+
+def settles_below(run: DenseRun, signal: Signal, level: float, a: float, b: float) -> float:
+    """The first t in [a, b] after which signal < level up to b: the last up-crossing;
+    NaN ("never") if the signal is >= level at b (it leaves the band before the end)."""
+    ts, s = _scan(run, a, b)
+    above = np.flatnonzero(np.asarray(signal(s)) >= level)
+    if not above.size:
+        return float(ts[0])
+    k = int(above[-1])
+    if k == ts.size - 1:
+        return math.nan
+    return float(_roots(run, signal, level, ts[k:k + 1], ts[k + 1:k + 2])[0])
+
+
+def fraction_above(run: DenseRun, signal: Signal, level: float, a: float, b: float) -> float:
+    """The share of [a, b] where signal > level (crossings located on the steps)."""
+    ts, s = _scan(run, a, b)
+    up = np.asarray(signal(s), float) > level
+    dt = np.diff(ts)
+    total = float(dt[up[:-1] & up[1:]].sum())
+    change = np.flatnonzero(up[:-1] != up[1:])  # one crossing in each such interval
+    roots = _roots(run, signal, level, ts[change], ts[change + 1])
+    rising = up[change + 1]
+    total += float(np.sum(np.where(rising, ts[change + 1] - roots, roots - ts[change])))
+    return total / (b - a)
+
+
+def maximum(run: DenseRun, signal: Signal, a: float, b: float) -> tuple[float, float]:
+    """(max over [a, b] of signal, the instant): the largest scan point refined on the
+    continuous extension between its neighbours."""
+    ts, s = _scan(run, a, b)
+    v = np.asarray(signal(s), float)
+    k = int(np.argmax(v))
+    lo, hi = ts[max(k - 1, 0)], ts[min(k + 1, ts.size - 1)]
+    best_t, best = float(ts[k]), float(v[k])
+    if hi > lo:
+        res = minimize_scalar(lambda t: -_at(run, signal, t), bounds=(lo, hi),
+                              method="bounded", options={"xatol": XTOL})
+        if -res.fun > best:
+            best_t, best = float(res.x), float(-res.fun)
+    return best, best_t
+
+
+def minimum(run: DenseRun, signal: Signal, a: float, b: float) -> tuple[float, float]:
+    """(min over [a, b] of signal, the instant), as :func:`maximum`."""
+    value, t = maximum(run, lambda s: -signal(s), a, b)
+    return -value, t
