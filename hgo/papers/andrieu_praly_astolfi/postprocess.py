@@ -153,7 +153,7 @@ class APAMetrics:
 
     def apply(self, system: System, traj: Trajectory) -> PostOutput:
         run = steps_of(traj)
-        hbar = float(system.plant.p[0])
+        hbar = system.plant.p.hbar
         out = PostOutput()
         rates = {"true": _rates(traj, hbar)}
         hbar_o = None
