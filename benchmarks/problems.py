@@ -9,6 +9,13 @@ hand_bench.py: hgo's systems, solver settings and noise for them.
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+import tempfile
+import textwrap
+from pathlib import Path
+
 import numpy as np
 
 from hgo.controllers.open_loop import open_loop_controller
@@ -19,6 +26,8 @@ from hgo.observers.switched_hgo import switched_hgo
 from hgo.observers.triangular import triangular_hgo
 from hgo.plants.dc_motor import dc_motor_plant
 from hgo.plants.sp_linear import sp_linear_plant
+
+ROOT = Path(__file__).resolve().parent.parent
 
 RTOL_B, ATOL_B = 1e-8, 1e-10  # problem B: solve_ivp, the hand kernel and hgo's dopri5
 # hgo's choice for problem B: DOP853 at a looser rtol, still more accurate than solve_ivp
@@ -91,3 +100,46 @@ def a_noise(seed: int = 1, t_end: float = A_T) -> Noise:
 def a_solver(t_end: float = A_T) -> SolverSettings:
     return SolverSettings(t_end=t_end, dt_out=A_DT_OUT, method="rk4", h_max=1.0)
 
+
+# ---------------------------------------------------------------------- compile times
+COMPILE_SNIPPET = textwrap.dedent("""
+    import time, sys
+    t0 = time.perf_counter()
+    sys.path.insert(0, {bench!r})
+    import problems as b
+    problem = {problem!r}
+    if problem == "B":
+        system, solver, noise = b.b_system(), b.b_solver(), b.no_noise(1)
+    elif problem == "B853":
+        system, solver, noise = b.b_system(), b.b_solver(**b.FAST_B), b.no_noise(1)
+    else:
+        system, solver, noise = b.a_system(), b.a_solver(), b.a_noise()
+    t1 = time.perf_counter()
+    b.simulate(system, solver, noise)
+    t2 = time.perf_counter()
+    b.simulate(system, solver, noise)
+    t3 = time.perf_counter()
+    print(f"{{t1 - t0}} {{t2 - t1}} {{t3 - t2}}")
+""")
+
+
+def _first_run(code: str, env: dict) -> float:
+    res = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                         text=True, cwd=ROOT, check=True)
+    _, first, steady = (float(v) for v in res.stdout.split()[-3:])
+    return first - steady
+
+
+def compile_times(problem: str) -> tuple[float, float, float]:
+    """Time from the first simulate() call to its return, minus one steady-state run, in a
+    fresh process: (empty caches, only the kernel new (numba's cache of the components'
+    helpers kept, as for a new combination of known components; the components themselves
+    are compiled into every new kernel), everything cached)."""
+    code = COMPILE_SNIPPET.format(bench=str(Path(__file__).resolve().parent), problem=problem)
+    with tempfile.TemporaryDirectory() as cache, tempfile.TemporaryDirectory() as kernels:
+        # NUMBA_CACHE_DIR too: the component functions are cached by numba next to their
+        # modules, and a truly new configuration compiles them as well
+        env = dict(os.environ, HGO_CACHE_DIR=cache, NUMBA_CACHE_DIR=cache)
+        empty, cached = _first_run(code, env), _first_run(code, env)
+        new_kernel = _first_run(code, dict(env, HGO_CACHE_DIR=kernels))
+    return empty, new_kernel, cached

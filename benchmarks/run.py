@@ -5,6 +5,7 @@
     python benchmarks/run.py --only grid,recording,memory   # a subset (see --help)
     python benchmarks/run.py --only apa,dhlm,moreno         # the papers' rows against solve_ivp
     python benchmarks/run.py --only reproduce,startup       # whole-process rows
+    python benchmarks/run.py --only hand    # hgo over hand-written kernels (hand_bench.py)
 
 Times are medians of >= 3 runs after compilation (CPU-bound; wall clock), ratios are
 taken inside the same run. Prints the tables and ends with one line
@@ -19,7 +20,6 @@ import os
 import subprocess
 import sys
 import tempfile
-import textwrap
 import time
 from pathlib import Path
 
@@ -46,6 +46,7 @@ from problems import (  # noqa: E402
     b_errors,
     b_solver,
     b_system,
+    compile_times,
     ensemble_inputs,
     ensemble_members,
     fast_label,
@@ -64,50 +65,6 @@ FAST_REPS = 15
 PAPER_ROWS = {"apa": "ratio", "dhlm": "ratio", "moreno": "ratio_dop853"}
 
 
-# ---------------------------------------------------------------------- compile times
-COMPILE_SNIPPET = textwrap.dedent("""
-    import time, sys
-    t0 = time.perf_counter()
-    sys.path.insert(0, {bench!r})
-    import problems as b
-    problem = {problem!r}
-    if problem == "B":
-        system, solver, noise = b.b_system(), b.b_solver(), b.no_noise(1)
-    elif problem == "B853":
-        system, solver, noise = b.b_system(), b.b_solver(**b.FAST_B), b.no_noise(1)
-    else:
-        system, solver, noise = b.a_system(), b.a_solver(), b.a_noise()
-    t1 = time.perf_counter()
-    b.simulate(system, solver, noise)
-    t2 = time.perf_counter()
-    b.simulate(system, solver, noise)
-    t3 = time.perf_counter()
-    print(f"{{t1 - t0}} {{t2 - t1}} {{t3 - t2}}")
-""")
-
-
-def _first_run(code: str, env: dict) -> float:
-    res = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
-                         text=True, cwd=ROOT, check=True)
-    _, first, steady = (float(v) for v in res.stdout.split()[-3:])
-    return first - steady
-
-
-def compile_times(problem: str) -> tuple[float, float, float]:
-    """Time from the first simulate() call to its return, minus one steady-state run, in a
-    fresh process: (empty caches, only the kernel new (numba's cache of the components'
-    helpers kept, as for a new combination of known components; the components themselves
-    are compiled into every new kernel), everything cached)."""
-    code = COMPILE_SNIPPET.format(bench=str(Path(__file__).resolve().parent), problem=problem)
-    with tempfile.TemporaryDirectory() as cache, tempfile.TemporaryDirectory() as kernels:
-        # NUMBA_CACHE_DIR too: the component functions are cached by numba next to their
-        # modules, and a truly new configuration compiles them as well
-        env = dict(os.environ, HGO_CACHE_DIR=cache, NUMBA_CACHE_DIR=cache)
-        empty, cached = _first_run(code, env), _first_run(code, env)
-        new_kernel = _first_run(code, dict(env, HGO_CACHE_DIR=kernels))
-    return empty, new_kernel, cached
-
-
 # ---------------------------------------------------------------------- main
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
@@ -115,7 +72,8 @@ def main() -> None:
     ap.add_argument("--only", help="comma-separated subset: core (the issue-5 tables), "
                     "sweeps (all of sweeps_bench.py) or its rows grid, recording, memory, "
                     "joblib; the papers' rows apa, dhlm, moreno; reproduce, startup (whole "
-                    "processes); default: core, sweeps, apa, dhlm, moreno")
+                    "processes); hand (hgo over hand-written kernels, issue 24); default: core, "
+                    "sweeps, apa, dhlm, moreno")
     args = ap.parse_args()
     quick = args.quick
     only = set(args.only.split(",")) if args.only else {"core", "sweeps", *PAPER_ROWS}
@@ -131,8 +89,16 @@ def main() -> None:
     for name in sorted(only & {"reproduce", "startup"}):
         subprocess.run([sys.executable, str(Path(__file__).with_name(f"{name}_bench.py"))],
                        check=True)
-    if "core" not in only:
-        return
+    if "core" in only:
+        core(quick)
+    if "hand" in only:  # last: its final line is hgo_over_hand
+        import hand_bench
+
+        hand_bench.bench(quick)
+
+
+def core(quick: bool) -> None:
+    """The issue-5 tables (problems A and B against solve_ivp and the hand kernels)."""
     reps = 3 if quick else 5
     t_start = time.perf_counter()
     print(f"# hgo benchmark ({'quick' if quick else 'full'}), {os.cpu_count()} cores, "

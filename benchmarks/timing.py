@@ -39,3 +39,16 @@ def table(title: str, header: list[str], rows: list[list]) -> None:
         print("| " + " | ".join(fmt(v) if isinstance(v, float) else str(v) for v in r) + " |")
 
 
+
+
+def interleaved_median_cpu(fns: list, reps: int) -> list[tuple[float, object]]:
+    """As :func:`interleaved_median_times`, in CPU seconds of the process (every thread:
+    hgo integrates in a worker thread), robust against other processes on a shared machine."""
+    times: list[list[float]] = [[] for _ in fns]
+    outs: list[object] = [None] * len(fns)
+    for _ in range(reps):
+        for k, fn in enumerate(fns):
+            t0 = time.process_time()
+            outs[k] = fn()
+            times[k].append(time.process_time() - t0)
+    return [(float(np.median(t)), out) for t, out in zip(times, outs, strict=True)]
