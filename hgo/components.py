@@ -7,6 +7,18 @@ indexing). The engine (:mod:`hgo.engine`) composes these functions into one
 compiled vector field; a component whose functions numba cannot compile still runs,
 on a slower pure-Python path (the engine warns once and says why).
 
+Parameters by name (issue 24). A component declares its parameters once, as a
+:class:`Params`: run-time values (scalars and fixed-shape float arrays, e.g. ``eps``,
+``A`` (n x n), ``L`` (n)) and compile-time constants (dimensions, which law, which model:
+ints, floats, bools, tuples of numbers, or functions). Its functions then receive ``p`` as
+a record and read ``p.eps``, ``p.A[i, j]``, ``p.n``: the generated kernel builds that
+record from the flat parameter vector with constant offsets and shapes, and writes the
+constants into its text as literals, so loops over ``range(p.n)`` have fixed trip counts
+and a branch on ``p.law`` is decided when the kernel compiles. Values that a sweep or an
+ensemble varies stay in the flat vector (``component.p``, addressed by name through
+:meth:`Params.index`); a component built with a plain array ``p`` still gets the
+positional view (the form of earlier versions).
+
 Function signatures (arrays are float64, outputs are written in place):
 
 * Plant   ``f(t, x, u, p, dx)``; ``h(t, x, p, y)`` — measured outputs before noise.
@@ -29,9 +41,141 @@ vector fields stay smooth and compilable.
 
 from __future__ import annotations
 
+import itertools
+import math
+import numbers
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
+
+Constant = int | float | bool | tuple | Callable
+"""A compile-time constant of a component: a number, a flag, a tuple of numbers (e.g.
+the output of each block), or a function the component calls (a user's phi)."""
+
+
+class Params:
+    """Named parameters of a component (module doc): ``Params(constants, **values)``.
+
+    ``values``: name -> float or float array of fixed shape (run time: the flat vector
+    :attr:`vector`, in declaration order, arrays row-major); ``constants``: name ->
+    constant (compile time: literals of the generated kernel). A name is one or the
+    other, and no attribute of a numpy array (the vector answers to the names too).
+    """
+
+    __slots__ = ("constants", "names", "offsets", "shapes", "vector")
+
+    def __init__(self, constants: Mapping[str, Constant] | None = None, /, **values) -> None:
+        self.constants = {k: _constant(k, v) for k, v in (constants or {}).items()}
+        for name in [*self.constants, *values]:
+            if hasattr(np.ndarray, name) or name.startswith("_"):
+                raise ValueError(f"parameter name '{name}' is taken by numpy arrays (or "
+                                 "private); choose another")
+        both = set(self.constants) & set(values)
+        if both:
+            raise ValueError(f"parameters {sorted(both)} are given as values and constants")
+        arrays = [np.asarray(v, float) for v in values.values()]
+        self.names = tuple(values)
+        self.shapes = tuple(a.shape for a in arrays)
+        ends = list(itertools.accumulate((a.size for a in arrays), initial=0))
+        self.offsets = tuple(ends[:-1])
+        flat = np.concatenate([a.ravel() for a in arrays]) if arrays else np.zeros(0)
+        self.vector = flat.view(ParamVector)
+        self.vector.spec = self
+
+    def index(self, name: str) -> slice | int:
+        """Where value ``name`` lies in the flat vector: an int for a scalar, else a slice."""
+        k = self.names.index(name)
+        if not self.shapes[k]:
+            return self.offsets[k]
+        return slice(self.offsets[k], self.offsets[k] + math.prod(self.shapes[k]))
+
+    def layout(self) -> tuple:
+        """What the generated kernel depends on: names, shapes and constants (hashable)."""
+        return (tuple(zip(self.names, self.shapes, strict=True)),
+                tuple(sorted(self.constants.items(), key=lambda kv: kv[0])))
+
+    def get(self, vector: np.ndarray, name: str):
+        """Parameter ``name`` read from ``vector``: a float, a view of the array's
+        entries, or the constant."""
+        if name in self.constants:
+            return self.constants[name]
+        k = self.names.index(name)
+        o, shape = self.offsets[k], self.shapes[k]
+        if not shape:
+            return float(vector[o])
+        return np.asarray(vector)[o:o + math.prod(shape)].reshape(shape)
+
+    def __repr__(self) -> str:
+        shapes = ", ".join(f"{n}{list(s) if s else ''}" for n, s in
+                           zip(self.names, self.shapes, strict=True))
+        return f"Params({self.constants}, {shapes})"
+
+
+class ParamVector(np.ndarray):
+    """The flat parameter vector of a component that also answers to the names of its
+    :class:`Params` (``p.eps``, ``p.A[i, j]``, ``p.n``), so a component function called
+    from plain Python with ``component.p`` reads what the kernel's record gives it.
+    Slices and results of arithmetic are plain arrays (no names)."""
+
+    spec: Params | None = None
+
+    def __array_finalize__(self, obj) -> None:
+        self.spec = None  # a view or a result is not the component's vector
+
+    def __getattr__(self, name: str):
+        spec = self.__dict__.get("spec")
+        if spec is None or (name not in spec.constants and name not in spec.names):
+            raise AttributeError(name)
+        return spec.get(self, name)
+
+    def __reduce__(self):  # pickled (sent to a process) as a plain vector + its names
+        return (_param_vector, (np.asarray(self), self.spec))
+
+
+def _param_vector(values: np.ndarray, spec: Params | None) -> ParamVector:
+    vec = np.asarray(values, float).view(ParamVector)
+    vec.spec = spec
+    return vec
+
+
+def params_of(component) -> Params | None:
+    """The :class:`Params` of a component (None: positional ``p``)."""
+    return getattr(component.p, "spec", None)
+
+
+def _constant(name: str, value) -> Constant:
+    """A constant as the kernel text writes it: numbers, bools, tuples of numbers (from
+    lists and arrays), or a callable."""
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, numbers.Integral):
+        return int(value)
+    if isinstance(value, numbers.Real):
+        return float(value)
+    if callable(value):
+        return value
+    if isinstance(value, (list, tuple, np.ndarray)):
+        items = np.asarray(value).ravel().tolist()
+        if all(isinstance(v, (int, float, bool)) for v in items):
+            return tuple(items)
+    raise ValueError(f"constant {name}: {value!r} is not a number, flag, tuple of numbers "
+                     "or function")
+
+
+class Named:
+    """Shared by the components: ``p`` given as :class:`Params` becomes its vector."""
+
+    def __post_init__(self) -> None:
+        if isinstance(self.p, Params):
+            self.p = self.p.vector
+        elif not isinstance(self.p, ParamVector):
+            self.p = np.asarray(self.p, float)
+
+    @property
+    def params(self) -> Params | None:
+        """The names behind ``p`` (None: a positional component)."""
+        return getattr(self.p, "spec", None)
 
 
 def no_update(t, z, d, y, u, p):  # noqa: ARG001 - fixed signature
@@ -40,7 +184,7 @@ def no_update(t, z, d, y, u, p):  # noqa: ARG001 - fixed signature
 
 
 @dataclass
-class Plant:
+class Plant(Named):
     """A plant ``dx/dt = f(t, x, u)``, ``y = h(t, x)`` (noise is added by the engine).
 
     ``output_state`` is the index of the state that measured channel 0 reads; it
@@ -64,7 +208,7 @@ class Plant:
 
 
 @dataclass
-class Observer:
+class Observer(Named):
     """An observer with continuous state z, discrete state d and parameters p."""
 
     name: str
@@ -98,7 +242,7 @@ class Observer:
 
 
 @dataclass
-class Controller:
+class Controller(Named):
     """Output feedback ``u = k(t, xhat, y)`` using the estimate of observer ``observer``."""
 
     name: str

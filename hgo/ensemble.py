@@ -22,15 +22,18 @@ from hgo.grid import expand_grid, grid_size, shard_indices
 
 def _layout(system: System) -> tuple:
     """What the compiled kernel depends on: component functions (stiffness hooks and the
-    observer the controller reads included) and sizes, not parameter values."""
+    observer the controller reads included), sizes, and the names, shapes and constants
+    of named parameters (constants are literals of the kernel), not parameter values."""
     plant = system.plant
     funcs = (plant.f, plant.h) + tuple((o.f, o.update, o.estimate, o.stiffness)
                                        for o in system.observers)
     ctrl = None if system.controller is None else (system.controller.u,
                                                    system.controlled_observer())
+    comps = [plant, *system.observers] + ([system.controller] if system.controller else [])
+    names = tuple(None if c.params is None else c.params.layout() for c in comps)
     return (funcs, ctrl, tuple(system.z_slices), tuple(system.d_slices),
             tuple(system.p_slices), tuple(system.xh_slices), len(plant.output_names),
-            len(plant.input_names), tuple(system.estimate_map().tolist()))
+            len(plant.input_names), tuple(system.estimate_map().tolist()), names)
 
 
 def stack_members(systems: list[System]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -44,9 +47,10 @@ def stack_members(systems: list[System]) -> tuple[np.ndarray, np.ndarray, np.nda
     ref = _layout(systems[0])
     for i, s in enumerate(systems[1:], start=1):
         if _layout(s) != ref:
-            raise ValueError(f"ensemble member {i} has a different layout (components or "
-                             "state/parameter sizes) than member 0; members may differ "
-                             "only in parameter values and initial states")
+            raise ValueError(f"ensemble member {i} has a different layout (components, "
+                             "state/parameter sizes or compile-time constants such as a "
+                             "dimension or a law) than member 0; members may differ only "
+                             "in parameter values and initial states")
     params = np.stack([s.params() for s in systems])
     z0 = np.stack([s.z0() for s in systems])
     d0 = np.stack([s.d0() for s in systems])

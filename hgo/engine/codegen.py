@@ -18,6 +18,7 @@ import functools
 import hashlib
 import importlib.util
 import inspect
+import math
 import os
 import sys
 import tempfile
@@ -27,7 +28,7 @@ from types import ModuleType
 
 from hgo.components import no_update
 from hgo.engine import tableau
-from hgo.engine.jit import borrow_function, view_function
+from hgo.engine.jit import borrow_function, view2_function, view_function
 from hgo.engine.system import System
 from hgo.engine.tableau import ADAPTIVE, method_source, scipy_tableau_files
 
@@ -61,8 +62,17 @@ def _fallback_dir(wanted: Path) -> Path:
     return path
 
 
+def _components(system: System) -> list:
+    """Plant, observers and controller, in the order of the parameter slices."""
+    return [system.plant, *system.observers] + ([system.controller] if system.controller
+                                                else [])
+
+
 def _functions(system: System) -> tuple[dict[str, object], dict]:
-    """Injected name -> component function (one per distinct function), and the call names."""
+    """Injected name -> component function (one per distinct function), and the call names.
+
+    Functions among a component's constants (a user's phi, say) are injected too; the
+    ``"const"`` entry maps (component index, constant name) to their injected names."""
     named: dict[str, object] = {}
 
     def add(prefix: str, fn: object) -> str:
@@ -84,6 +94,9 @@ def _functions(system: System) -> tuple[dict[str, object], dict]:
         "stiff": [None if getattr(o, "stiffness", None) is None
                   else add("c_obs_stiff", o.stiffness) for o in system.observers],
         "ctrl": None if system.controller is None else add("c_ctrl_u", system.controller.u),
+        "const": {(k, name): add("c_const", value)
+                  for k, comp in enumerate(_components(system)) if comp.params is not None
+                  for name, value in comp.params.constants.items() if callable(value)},
     }
     return named, calls
 
@@ -93,15 +106,64 @@ def _v(arr: str, a: int, b: int) -> str:
     return f"view({arr}, {a}, {b})"
 
 
+def _literal(value: object) -> str:
+    """A constant as kernel text (floats exactly, inf and nan through math)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return "math.nan" if math.isnan(value) else f"{'-' if value < 0 else ''}math.inf"
+    if isinstance(value, tuple):
+        return "(" + "".join(f"{_literal(v)}, " for v in value) + ")"
+    return repr(value)
+
+
+def _records(system: System, names: dict) -> tuple[list[str], list[str]]:
+    """The record of each component with named parameters (:class:`hgo.components.Params`):
+    its class and an inlined builder reading the flat vector P at constant offsets, with
+    the constants as literals; and, per component, the argument its functions get (the
+    builder's call, or the positional view ``P[a:b]``)."""
+    lines, args = [], []
+    for k, (comp, (a, b)) in enumerate(zip(_components(system), system.p_slices,
+                                           strict=True)):
+        spec = comp.params
+        if spec is None:
+            args.append(_v("P", a, b))
+            continue
+        fields, values = [], []
+        for name, shape, o in zip(spec.names, spec.shapes, spec.offsets, strict=True):
+            fields.append(name)
+            if not shape:
+                values.append(f"P[{a + o}]")
+            elif len(shape) == 1:
+                values.append(_v("P", a + o, a + o + shape[0]))
+            elif len(shape) == 2:
+                values.append(f"view2(P, {a + o}, {shape[0]}, {shape[1]})")
+            else:
+                raise ValueError(f"{comp.name}: parameter {name} has {len(shape)} dimensions; "
+                                 "at most 2 are supported")
+        for name, value in spec.constants.items():
+            fields.append(name)
+            values.append(names["const"][(k, name)] if callable(value) else _literal(value))
+        lines += [f"_P{k} = namedtuple('_P{k}', {fields!r})", "", "",
+                  "@cjit", f"def _p{k}(P):",
+                  f'    """The parameters of {comp.name} by name: run-time values read from P, '
+                  'constants."""',
+                  f"    return _P{k}(",
+                  *[f"        {name}={value}," for name, value in zip(fields, values,
+                                                                     strict=True)],
+                  "    )", "", ""]
+        args.append(f"_p{k}(P)")
+    return lines, args
+
+
 def _header(system: System, names: dict) -> str:
     nx, ny, nu = system.plant.nx, len(system.plant.output_names), len(system.plant.input_names)
-    zs, ds, ps, xs = system.z_slices, system.d_slices, system.p_slices, system.xh_slices
+    zs, ds, xs = system.z_slices, system.d_slices, system.xh_slices
     ctrl_obs = system.controlled_observer()
     n_xc = 0 if ctrl_obs is None else xs[ctrl_obs][1] - xs[ctrl_obs][0]
     y, u = _v("w", 0, ny), _v("w", ny, ny + nu)
+    record_lines, p_args = _records(system, names)
 
     def obs_args(k: int) -> tuple[str, str, str]:
-        return _v("z", *zs[k + 1]), _v("d", *ds[k]), _v("P", *ps[k + 1])
+        return _v("z", *zs[k + 1]), _v("d", *ds[k]), p_args[k + 1]
 
     updates = [o.update for o in system.observers]
     has_update = any(fn is not no_update for fn in updates)
@@ -110,7 +172,11 @@ def _header(system: System, names: dict) -> str:
                                             if fn is not no_update)
     lines = [
         "import math",
+        "from collections import namedtuple",
+        "",
         "import numpy as np",
+        "",
+        *record_lines,
         f"HAS_UPDATE = {has_update}",
         f"NZ = {system.nz}",
         f"NX = {nx}",
@@ -127,7 +193,7 @@ def _header(system: System, names: dict) -> str:
         "@ijit",
         "def _signals(t, z, d, m, P, w):",
         '    """Measured outputs y = h(x) + m and the input u, into the work vector w."""',
-        f"    {names['plant_h']}(t, {_v('z', 0, nx)}, {_v('P', *ps[0])}, {y})",
+        f"    {names['plant_h']}(t, {_v('z', 0, nx)}, {p_args[0]}, {y})",
         f"    for i in range({ny}):",
         "        w[i] += m[i]",
     ]
@@ -138,13 +204,13 @@ def _header(system: System, names: dict) -> str:
         xc = _v("w", ny + nu, ny + nu + n_xc)
         if reads_estimate(system):  # (an open-loop input ignores the estimate)
             lines.append(f"    {names['obs'][k][2]}(t, {zk}, {dk}, {pk}, {xc})")
-        lines.append(f"    {names['ctrl']}(t, {xc}, {y}, {_v('P', *ps[-1])}, {u})")
+        lines.append(f"    {names['ctrl']}(t, {xc}, {y}, {p_args[-1]}, {u})")
     lines += ["", "", "@ijit", signals_y[0].replace("_signals(", "_signals_y("),
               '    """Measured outputs y = h(x) + m only (w[u] is left as it is)."""',
               *signals_y[2:]]
     lines += ["", "", "@ijit", "def system_rhs(t, z, d, m, P, w, dz):",
               "    _signals(t, z, d, m, P, w)",
-              f"    {names['plant_f']}(t, {_v('z', 0, nx)}, {u}, {_v('P', *ps[0])}, "
+              f"    {names['plant_f']}(t, {_v('z', 0, nx)}, {u}, {p_args[0]}, "
               f"{_v('dz', 0, nx)})"]
     for k, (f, _, _) in enumerate(names["obs"]):
         zk, dk, pk = obs_args(k)
@@ -401,7 +467,9 @@ def _layout_key(system: System, method: str, compiled: bool) -> tuple:
     layout = (plant.nx, len(plant.output_names), len(plant.input_names),
               tuple(system.z_slices), tuple(system.d_slices), tuple(system.p_slices),
               tuple(system.xh_slices), tuple(system.estimate_map().tolist()),
-              tuple(system.yhat_columns().tolist()), system.controlled_observer())
+              tuple(system.yhat_columns().tolist()), system.controlled_observer(),
+              tuple(None if c.params is None else c.params.layout()
+                    for c in _components(system)))
     return (method, compiled, tuple(functions.items()), layout)
 
 
@@ -409,7 +477,9 @@ def _decorators(compiled: bool) -> dict[str, object]:
     if not compiled:
         return {"jit": lambda fn: fn, "pjit": lambda fn: fn, "prange": range,
                 "view": view_function(False), "borrow": borrow_function(False),
-                "ijit": lambda fn: fn, "component_jit": lambda fn: fn}
+                "view2": view2_function(False),
+                "ijit": lambda fn: fn, "component_jit": lambda fn: fn,
+                "cjit": lambda fn: fn}
     import numba
 
     # error_model="numpy": a division by zero gives inf/nan (caught as status 1) instead of
@@ -421,19 +491,23 @@ def _decorators(compiled: bool) -> dict[str, object]:
     # would otherwise compile through LLVM too (measured: ~15 % of a fresh compile of
     # problem B). ``jit`` functions keep theirs: without it _trial ran slower.
     internal = {**opts, "no_cpython_wrapper": True}
+    # components, compiled into each new kernel and never cached on their own: numba's
+    # cache key ignores compile options, so an entry written under other options (an
+    # older hgo) would be reused. Measured: problem A's kernel built on such entries
+    # ran 9.5-10.5 ms instead of 5.5 ms. The kernel holding them inlined is cached.
+    component = _noalias(numba.njit(**{**internal, "cache": False}, forceinline=True))
     return {
         "jit": _noalias(numba.njit(**opts)),
         # small helpers called per output sample: inlined by numba itself
         "ijit": _noalias(numba.njit(**internal, forceinline=True)),
-        # components, compiled into each new kernel and never cached on their own: numba's
-        # cache key ignores compile options, so an entry written under other options (an
-        # older hgo) would be reused. Measured: problem A's kernel built on such entries
-        # ran 9.5-10.5 ms instead of 5.5 ms. The kernel holding them inlined is cached.
-        "component_jit": _noalias(numba.njit(**{**internal, "cache": False},
-                                             forceinline=True)),
+        "component_jit": component,
+        # the parameter records' builders: they name the components' (uncached) functions
+        # among their constants, so they are compiled like them
+        "cjit": component,
         "pjit": _noalias(numba.njit(**opts, parallel=True)),
         "prange": numba.prange,
         "view": view_function(True),
+        "view2": view2_function(True),
         "borrow": borrow_function(True),
     }
 

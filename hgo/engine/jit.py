@@ -51,6 +51,30 @@ def _borrowed_view(typingctx, arr, start, stop):
 
 
 @intrinsic
+def _borrowed_view2(typingctx, arr, start, rows, cols):
+    """``arr[start:start + rows * cols].reshape(rows, cols)`` of a 1-D C-contiguous array,
+    borrowed as :func:`_borrowed_view` (a matrix parameter of a component, by name)."""
+    if not (isinstance(arr, types.Array) and arr.ndim == 1 and arr.layout == "C"):
+        return None
+    ret = types.Array(arr.dtype, 2, "C")
+
+    def codegen(context, builder, signature, args):
+        aty = signature.args[0]
+        src = arrayobj.make_array(aty)(context, builder, args[0])
+        s, r, c = (context.cast(builder, v, t, types.intp)
+                   for v, t in zip(args[1:], signature.args[1:], strict=True))
+        out = arrayobj.make_array(ret)(context, builder)
+        itemsize = context.get_constant(
+            types.intp, context.get_abi_sizeof(context.get_data_type(aty.dtype)))
+        arrayobj.populate_array(out, data=builder.gep(src.data, [s]), shape=[r, c],
+                                strides=[builder.mul(c, itemsize), itemsize],
+                                itemsize=itemsize, meminfo=None)
+        return out._getvalue()
+
+    return ret(arr, start, rows, cols), codegen
+
+
+@intrinsic
 def _borrowed(typingctx, arr):
     if not isinstance(arr, types.Array):
         return None
@@ -69,6 +93,15 @@ def _borrowed(typingctx, arr):
 
 def _py_view(a, start, stop):
     return a[start:stop]
+
+
+def _py_view2(a, start, rows, cols):
+    return a[start:start + rows * cols].reshape(rows, cols)
+
+
+def view2_function(compiled: bool):
+    """``view2`` for generated kernels: a (rows, cols) matrix parameter, borrowed."""
+    return _borrowed_view2 if compiled else _py_view2
 
 
 def _py_borrowed(a):

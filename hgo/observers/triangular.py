@@ -16,8 +16,8 @@ with the gain r driven by one of three laws (``law``):
 The model F^ is affine, F^(x^) = M x^ + c with M lower triangular (the triangular
 structure of (3)); Sanfelice & Praly (19) is M = [[nu1, 0], [0, 0]], c = 0.
 
-State z = [x^1, ..., x^n, r]; parameters
-p = [n, law, p1, p2, b, K~ (n), M (n*n, row-major), c (n)].
+State z = [x^1, ..., x^n, r]; parameters (by name): constants n and law (``LAWS``), values
+p1, p2, b, K (n: K~), M (n x n), c (n).
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from hgo.components import Observer
+from hgo.components import Observer, Params
 from hgo.engine.jit import kernel_helper
 from hgo.errors import as_floats
 
@@ -57,22 +57,19 @@ def gain_rate(law, e, r, n, p1, p2, b):
 
 
 def f(t, z, d, y, u, p, dz):
-    """Sanfelice & Praly (5)-(7) with the law selected by p[1]."""
-    n = z.shape[0] - 1  # = p[0]; the view's length is a compile-time constant: loops unroll
-    K = p[5:5 + n]
-    M = p[5 + n:5 + n + n * n]
-    c = p[5 + n + n * n:5 + 2 * n + n * n]
+    """Sanfelice & Praly (5)-(7) with the law p.law (a constant of the kernel)."""
+    n = p.n
     r = z[n]
     e = z[0] - y[0]
     r_i = 1.0
     for i in range(n):
         r_i *= r
-        model = c[i]
+        model = p.c[i]
         for j in range(i + 1):
-            model += M[i * n + j] * z[j]
+            model += p.M[i, j] * z[j]
         chain = z[i + 1] if i < n - 1 else 0.0
-        dz[i] = chain + model - K[i] * r_i * e
-    dz[n] = _rate(int(p[1]), e, r, r_i * r_i, p[2], p[3], p[4])  # r_i = r^n here
+        dz[i] = chain + model - p.K[i] * r_i * e
+    dz[n] = _rate(p.law, e, r, r_i * r_i, p.p1, p.p2, p.b)  # r_i = r^n here
 
 
 def estimate(t, z, d, p, xhat):
@@ -110,7 +107,7 @@ def triangular_hgo(name: str, K: Sequence[float], xhat0: Sequence[float], r0: fl
         _check(p1 > 0, f"observer.{name}.p1 must be > 0, got {p1}")
         _check(p2 > 0, f"observer.{name}.p2 must be > 0, got {p2}")
         _check(0 < b < 0.5, f"observer.{name}.b must be in (0, 1/2), got {b}")
-    p = np.concatenate([[n, LAWS[law], p1, p2, b], np.asarray(K, float), M.ravel(), c])
+    p = Params({"n": n, "law": LAWS[law]}, p1=p1, p2=p2, b=b, K=K, M=M, c=c)
     return Observer(name=name, state_names=[f"xhat{i + 1}" for i in range(n)] + ["r"],
                     disc_names=[], estimated_states=list(range(n)),
                     z0=np.array([*xhat0, r0], float), d0=np.zeros(0), p=p, f=f,

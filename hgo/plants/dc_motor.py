@@ -15,7 +15,7 @@ Initial current x3(0) (not given in the paper): 100 A by default, the equilibriu
 psi at rest (x2 = 0 gives psi = -2 x3 + 200 for every u), so the motor starts at
 rest in steady state: x(0) = (0, 0, 100).
 
-Parameters p = [a, b, c, d, e].
+Parameters (by name): a, b, c, d, e.
 """
 
 from __future__ import annotations
@@ -24,10 +24,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from hgo.components import Plant
+from hgo.components import Params, Plant
 
-#: Names of the entries of the parameter vector p.
-PARAM_NAMES = ["a", "b", "c", "d", "e"]
 #: Equilibrium armature current at rest, e / c = 200 / 2 (A).
 X3_REST = 100.0
 
@@ -35,8 +33,8 @@ X3_REST = 100.0
 def f(t, x, u, p, dx):
     """Ahrens & Khalil (38): chain x1' = x2, x2' = phi(x, u), x3' = psi(x, u)."""
     dx[0] = x[1]
-    dx[1] = -p[0] * x[1] + p[1] * x[2] * u[0]
-    dx[2] = -p[2] * x[2] - p[3] * x[1] * u[0] + p[4]
+    dx[1] = -p.a * x[1] + p.b * x[2] * u[0]
+    dx[2] = -p.c * x[2] - p.d * x[1] * u[0] + p.e
 
 
 def h(t, x, p, y):
@@ -60,5 +58,5 @@ def dc_motor_plant(x0: Sequence[float] = (0.0, 0.0, X3_REST), a: float = 0.1, b:
     # any high-gain observer (|u| = 10 adds only O(sqrt(b d) |u|) ~ 1.4).
     return Plant(name="dc_motor", state_names=["x1", "x2", "x3"], output_names=["y", "x3"],
                  input_names=["u"], x0=np.asarray(x0, float),
-                 p=np.array([a, b, c, d, e], float), f=f, h=h, output_state=0,
+                 p=Params(a=a, b=b, c=c, d=d, e=e), f=f, h=h, output_state=0,
                  spectral_radius=max(a, c))

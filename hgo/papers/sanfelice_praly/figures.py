@@ -34,8 +34,8 @@ def _label(obs) -> str:
 
     par = law6_parameters(obs)
     if obs.f.__module__ == "hgo.observers.triangular":
-        law = {0: "constant gain", 1: "law (6)", 2: "dead-zone law (4)"}[int(obs.p[1])]
-        return f"{obs.name}: {law}, $p_2 = {obs.p[3]:g}$"
+        law = {0: "constant gain", 1: "law (6)", 2: "dead-zone law (4)"}[obs.p.law]
+        return f"{obs.name}: {law}, $p_2 = {obs.p.p2:g}$"
     if par is not None and par["kind"] == "collection":
         return f"{obs.name}: average of {par['N']} copies (21), $p_2 = {par['p2']:g}$"
     return obs.name

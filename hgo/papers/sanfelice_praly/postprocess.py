@@ -52,11 +52,11 @@ PAPER_P = [[1.0, -0.5], [-0.5, 0.5]]
 def law6_parameters(obs) -> dict | None:
     """kind, n, p1, p2, b, K~ (and N for a collection) of a law-(6) observer, else None."""
     if obs.f is triangular.f:
-        if int(obs.p[1]) != triangular.LAWS["sign_indefinite"]:
+        p = obs.p
+        if p.law != triangular.LAWS["sign_indefinite"]:
             return None
-        n = int(obs.p[0])
-        return {"kind": "triangular", "n": n, "p1": float(obs.p[2]), "p2": float(obs.p[3]),
-                "b": float(obs.p[4]), "K": np.asarray(obs.p[5:5 + n], float)}
+        return {"kind": "triangular", "n": p.n, "p1": p.p1, "p2": p.p2, "b": p.b,
+                "K": np.array(p.K)}
     if obs.f is collection.f:
         return {"kind": "collection", **collection.collection_params(obs)}
     return None

@@ -1,0 +1,145 @@
+"""Components with named parameters (issue 24, item 1): ``p.A[i, j]``, ``p.n``, ``p.phi``."""
+
+from __future__ import annotations
+
+import math
+import pickle
+import warnings
+from fractions import Fraction
+
+import numpy as np
+import pytest
+from scipy.linalg import expm
+
+from hgo.components import Params, Plant
+from hgo.engine.codegen import kernel_source
+from hgo.engine.simulate import SolverSettings, no_noise, simulate, simulate_ensemble
+from hgo.engine.system import System
+from hgo.ensemble import stack_members
+from hgo.observers.triangular import triangular_hgo
+
+A_DAMPED = [[0.0, 1.0], [-2.0, -0.3]]
+
+
+def linear_f(t, x, u, p, dx):
+    """x' = A x + g phi(x_1): A (n x n) and g (n) run-time values, n and phi constants."""
+    for i in range(p.n):
+        acc = p.g[i] * p.phi(x[0])
+        for j in range(p.n):
+            acc += p.A[i, j] * x[j]
+        dx[i] = acc
+
+
+def output_h(t, x, p, y):
+    y[0] = x[0]
+
+
+def zero(s):
+    return 0.0
+
+
+def cube(s):
+    return s * s * s
+
+
+def linear_plant(A=A_DAMPED, g=(0.0, 0.0), phi=zero) -> Plant:
+    A = np.asarray(A, float)
+    n = A.shape[0]
+    return Plant(name="linear", state_names=[f"x{i + 1}" for i in range(n)],
+                 output_names=["y"], input_names=[], x0=np.ones(n),
+                 p=Params({"n": n, "phi": phi}, A=A, g=g), f=linear_f, h=output_h)
+
+
+def _observer(n: int = 2):
+    return triangular_hgo("hgo", K=[2.0, 1.0][:n], xhat0=[0.0] * n, r0=2.0, law="constant")
+
+
+SOLVER = SolverSettings(t_end=2.0, dt_out=0.5, rtol=1e-11, atol=1e-13)
+
+
+def test_matrix_parameter_read_by_name_gives_the_exact_solution():
+    """x' = A x integrated with A read as p.A[i, j] matches expm(A t) x0 to 1e-9."""
+    traj = simulate(System(linear_plant(), [_observer()]), SOLVER, no_noise(1))
+    assert traj.ok
+    exact = np.array([expm(np.asarray(A_DAMPED) * t) @ np.ones(2) for t in traj.t])
+    assert np.abs(traj.z[:, :2] - exact).max() < 1e-9
+
+
+def test_kernel_text_names_parameters_and_writes_constants_as_literals():
+    """The generated record reads each value from P at a constant offset, by name, and
+    holds the dimension as a literal and the function by its injected name."""
+    text, functions = kernel_source(System(linear_plant(phi=cube), [_observer()]))
+    assert "A=view2(P, 0, 2, 2)," in text
+    assert "g=view(P, 4, 6)," in text
+    assert "n=2," in text
+    assert "law=0," in text and "K=view(P, 9, 11)," in text  # the observer's, after P[:6]
+    phi_name = next(k for k, fn in functions.items() if fn is cube)
+    assert f"phi={phi_name}," in text
+
+
+def test_function_constant_is_called_by_the_kernel():
+    """x1' = x2 - x1^3 through p.phi = cube, against the same field in plain Python."""
+    plant = linear_plant(A=[[0.0, 1.0], [-1.0, 0.0]], g=(-1.0, 0.0), phi=cube)
+    traj = simulate(System(plant, [_observer()]), SOLVER, no_noise(1))
+    from scipy.integrate import solve_ivp
+
+    ref = solve_ivp(lambda t, x: [x[1] - x[0] ** 3, -x[0]], (0.0, 2.0), [1.0, 1.0],
+                    t_eval=traj.t, rtol=1e-12, atol=1e-14, method="DOP853")
+    assert np.abs(traj.z[:, :2] - ref.y.T).max() < 1e-8
+
+
+def test_ensemble_varies_a_named_value():
+    """Members differing in p.A[1, 0] run in one compiled call, each as its single run."""
+    systems = [System(linear_plant(A=[[0.0, 1.0], [k, -0.3]]), [_observer()])
+               for k in (-1.0, -2.0, -4.0)]
+    params, z0, d0 = stack_members(systems)
+    out = simulate_ensemble(systems[0], SOLVER, no_noise(1), params, z0, d0, record=True)
+    for system, traj in zip(systems, out["trajectories"], strict=True):
+        single = simulate(system, SOLVER, no_noise(1))
+        np.testing.assert_array_equal(traj.z, single.z)
+    assert systems[2].plant.p.A[1, 0] == -4.0
+
+
+def test_ensemble_refuses_members_with_other_constants():
+    """A dimension or a function is compiled in: members must share them."""
+    with pytest.raises(ValueError, match="compile-time constants"):
+        stack_members([System(linear_plant(phi=zero), [_observer()]),
+                       System(linear_plant(phi=cube), [_observer()])])
+
+
+ONE = Fraction(1)  # a Python object numba cannot type
+
+
+def uncompilable_f(t, x, u, p, dx):
+    dx[0] = -float(ONE) * p.a * x[0]
+    dx[1] = 0.0
+
+
+def test_uncompilable_named_component_runs_in_python_with_one_warning():
+    plant = Plant(name="py", state_names=["x1", "x2"], output_names=["y"], input_names=[],
+                  x0=np.array([1.0, 0.0]), p=Params(a=0.5), f=uncompilable_f, h=output_h)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        traj = simulate(System(plant, [_observer()]), SOLVER, no_noise(1))
+    assert len([w for w in caught if "pure-Python" in str(w.message)]) == 1
+    assert abs(traj.z[-1, 0] - math.exp(-0.5 * 2.0)) < 1e-9
+
+
+def test_param_vector_answers_to_names_and_survives_pickling():
+    p = Params({"n": 2, "law": 1}, eps=0.5, A=[[1.0, 2.0], [3.0, 4.0]], L=[5.0, 6.0]).vector
+    assert p.tolist() == [0.5, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0]
+    assert p.eps == 0.5 and p.A[1, 0] == 3.0 and p.L[1] == 6.0 and p.n == 2
+    assert p.spec.index("A") == slice(1, 5) and p.spec.index("eps") == 0
+    q = pickle.loads(pickle.dumps(p))
+    assert q.A[0, 1] == 2.0 and q.law == 1
+    assert not hasattr(p[1:3], "eps")  # a slice is not the component's vector
+
+
+@pytest.mark.parametrize(("constants", "values", "match"), [
+    ({}, {"max": 1.0}, "taken by numpy"),
+    ({"n": 2}, {"n": 1.0}, "values and constants"),
+    ({"c": "text"}, {}, "not a number"),
+])
+def test_params_refuses_bad_names_and_constants(constants, values, match):
+    with pytest.raises(ValueError, match=match):
+        Params(constants, **values)
