@@ -32,7 +32,8 @@ plant's inputs, p this observer's parameters: a function reads model constants s
 For both, ``saturation`` (a level M, scalar or one per state) clips the estimate fed to
 phi0 to [-M, M] (peaking protection; the state itself is not clipped), and eps = 1 / ell
 (give one of them). The state z is the observer's own (x^ for the standard observer, the
-blocks xi_1, ..., xi_(n-1) in order for the low-power one).
+estimate x^ = (xi_1,1, xi_1,2, ..., xi_(n-1),2) first, then xi_2,1, ..., xi_(n-1),1 for the
+low-power one).
 
 Design checks in the factories (one line each on failure): alpha from roots with negative
 real parts; the low-power observer's linear error system (phi0 = 0) Hurwitz at the chosen
@@ -60,8 +61,12 @@ def zero_phi0(x, u, p):  # noqa: ARG001 - the signature of phi0
 
 
 # ---------------------------------------------------------------------- kernel functions
-# (no helpers between them and phi0: the saturation is written out in each, so the record
-# p, which holds the user's function, is only ever passed to phi0 itself)
+# No allocation in a kernel function: an array allocated per evaluation hangs the parallel
+# ensemble kernel (measured: two members of the low-power observer, np.empty in f, never
+# returned). The estimate goes to phi0 as a view of z (the low-power state is ordered so
+# that x^ is its first n entries); the saturated estimate is written into d, the
+# observer's discrete state, used here as a work area that only f writes (no update: d
+# never triggers a re-evaluation).
 def standard_f(t, z, d, y, u, p, dz):
     """x^i' = x^(i+1) + (alpha_i / eps^i) (y - x^1); x^n' = phi0(x^, u) + (alpha_n / eps^n) e."""
     e = y[0] - z[0]
@@ -71,10 +76,9 @@ def standard_f(t, z, d, y, u, p, dz):
         dz[i] = z[i + 1] + p.alpha[i] * gain * e
     gain /= p.eps
     if p.saturate:  # (a constant: one branch is compiled)
-        xs = np.empty(p.n)
         for i in range(p.n):
-            xs[i] = min(max(z[i], -p.sat_level[i]), p.sat_level[i])
-        phi = p.phi0(xs, u, p)
+            d[i] = min(max(z[i], -p.sat_level[i]), p.sat_level[i])
+        phi = p.phi0(d, u, p)
     else:
         phi = p.phi0(z, u, p)
     dz[p.n - 1] = phi + p.alpha[p.n - 1] * gain * e
@@ -87,29 +91,28 @@ def standard_estimate(t, z, d, p, xhat):
 
 
 def lowpower_f(t, z, d, y, u, p, dz):
-    """Astolfi & Marconi's blocks: xi_i,1' = xi_i,2 + ell k_i1 e_i,
-    xi_i,2' = xi_(i+1),2 (phi0(x^, u) in the last block) + ell^2 k_i2 e_i."""
+    """Astolfi & Marconi's blocks b = 1..n-1: xi_b,1' = xi_b,2 + ell k_b1 e_b,
+    xi_b,2' = xi_(b+1),2 (phi0(x^, u) in the last block) + ell^2 k_b2 e_b, with
+    z = (xi_1,1, xi_1,2, xi_2,2, ..., xi_(n-1),2, xi_2,1, ..., xi_(n-1),1)."""
+    n = p.n
     ell2 = p.ell * p.ell
-    m = p.n - 1
-    e = y[0] - z[0]
-    for i in range(m):
-        if i > 0:
-            e = z[2 * i - 1] - z[2 * i]
-        dz[2 * i] = z[2 * i + 1] + p.ell * p.K[i, 0] * e
-        if i < m - 1:
-            dz[2 * i + 1] = z[2 * i + 3] + ell2 * p.K[i, 1] * e
-    xs = np.empty(p.n)  # x^ (saturated), as lowpower_estimate
-    for i in range(p.n):
-        v = z[0] if i == 0 else z[2 * i - 1]
-        xs[i] = min(max(v, -p.sat_level[i]), p.sat_level[i]) if p.saturate else v
-    dz[2 * m - 1] = p.phi0(xs, u, p) + ell2 * p.K[m - 1, 1] * e
+    if p.saturate:
+        for i in range(n):
+            d[i] = min(max(z[i], -p.sat_level[i]), p.sat_level[i])
+        phi = p.phi0(d, u, p)
+    else:
+        phi = p.phi0(z[:n], u, p)
+    for b in range(n - 1):  # (0-based: block b + 1 of the paper)
+        first = 0 if b == 0 else n + b - 1  # where xi_(b+1),1 is; xi_(b+1),2 is z[b + 1]
+        e = y[0] - z[0] if b == 0 else z[b] - z[first]
+        dz[first] = z[b + 1] + p.ell * p.K[b, 0] * e
+        dz[b + 1] = (z[b + 2] if b < n - 2 else phi) + ell2 * p.K[b, 1] * e
 
 
 def lowpower_estimate(t, z, d, p, xhat):
-    """x^ = (xi_1,1, xi_1,2, xi_2,2, ..., xi_(n-1),2)."""
-    xhat[0] = z[0]
-    for i in range(1, p.n):
-        xhat[i] = z[2 * i - 1]
+    """x^ = (xi_1,1, xi_1,2, xi_2,2, ..., xi_(n-1),2): the first n entries of z."""
+    for i in range(p.n):
+        xhat[i] = z[i]
 
 
 # ---------------------------------------------------------------------- design
@@ -188,6 +191,12 @@ def _common(key: str, n: int, phi0, saturation, model, xhat0) -> tuple[dict, dic
     return constants, {"sat_level": level, **dict(model or {})}, x0
 
 
+def _work_names(constants: dict) -> list[str]:
+    """The discrete state: with saturation, the work area of the saturated estimate fed to
+    phi0 (kernel functions' comment); it holds the last evaluation's value, not a signal."""
+    return [f"phi0_arg{i + 1}" for i in range(constants["n"])] if constants["saturate"] else []
+
+
 def standard_hgo(name: str, n: int, eps: float | None = None, ell: float | None = None,
                  phi0: Callable | float | None = 0.0, roots: Sequence[float] | None = None,
                  saturation: float | Sequence[float] | None = None,
@@ -202,8 +211,10 @@ def standard_hgo(name: str, n: int, eps: float | None = None, ell: float | None 
     alpha = hurwitz_alpha(n, roots)
     constants["alpha"] = tuple(alpha.tolist())
     radius = gain * float(np.max(np.abs(np.roots(np.concatenate([[1.0], alpha])))))
-    return Observer(name=name, state_names=[f"xhat{i + 1}" for i in range(n)], disc_names=[],
-                    estimated_states=list(range(n)), z0=x0, d0=np.zeros(0),
+    return Observer(name=name, state_names=[f"xhat{i + 1}" for i in range(n)],
+                    disc_names=_work_names(constants),
+                    estimated_states=list(range(n)), z0=x0,
+                    d0=np.zeros(len(_work_names(constants))),
                     p=Params(constants, eps=1.0 / gain, **values), f=standard_f,
                     estimate=standard_estimate, spectral_radius=radius)
 
@@ -229,9 +240,11 @@ def lowpower_hgo(name: str, n: int, ell: float | None = None, eps: float | None 
                          f"with K = {K.tolist()} (largest real part of its eigenvalues "
                          f"{eig.real.max():.3g}); the default K = "
                          f"{lowpower_default_gains(n).tolist()} is")
-    z0 = np.ravel([[x0[i], x0[i + 1]] for i in range(n - 1)])
-    states = [f"xi{i + 1}_{j + 1}" for i in range(n - 1) for j in range(2)]
-    return Observer(name=name, state_names=states, disc_names=[],
-                    estimated_states=list(range(n)), z0=z0, d0=np.zeros(0),
+    z0 = np.concatenate([x0, x0[1:n - 1]])  # block i starts at (x^i(0), x^(i+1)(0))
+    states = ["xi1_1", *(f"xi{i + 1}_2" for i in range(n - 1)),
+              *(f"xi{i + 1}_1" for i in range(1, n - 1))]
+    return Observer(name=name, state_names=states, disc_names=_work_names(constants),
+                    estimated_states=list(range(n)), z0=z0,
+                    d0=np.zeros(len(_work_names(constants))),
                     p=Params(constants, ell=gain, K=K, **values), f=lowpower_f,
                     estimate=lowpower_estimate, spectral_radius=float(np.abs(eig).max()))
