@@ -20,9 +20,9 @@ from pathlib import Path
 import numpy as np
 from hydra import compose, initialize_config_dir
 
-from hgo.config import register_configs
-from hgo.recording import write_recording
-from hgo.runner import build, run_experiment, signals
+from hgo.core.config import register_configs
+from hgo.outputs.recording import write_recording
+from hgo.running.runner import build, run_experiment, signals
 
 CONF = str(Path(__file__).resolve().parent.parent / "conf")
 

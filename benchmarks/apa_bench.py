@@ -6,7 +6,7 @@ The problem: the Contois plant (11) and the three observers df2max, omega1, omeg
 states), Gaussian noise std 0.05 held Delta = 0.01 (seed 0), input switches at 10, 20, 35,
 horizon T = 50 (``--quick``: T = 5), outputs at the noise instants t = k Delta on both sides
 (``solver.dt_out=0.01``). hgo runs the preset through its normal path
-(``hgo.runner.simulate_config``: build -> compiled kernel, DOP853 rtol 1e-8, atol 1e-10,
+(``hgo.running.runner.simulate_config``: build -> compiled kernel, DOP853 rtol 1e-8, atol 1e-10,
 each observer with its own copy of the plant: the preset's ``solver.split_observers``),
 timed after one compiling run, median of 3 runs before and 3 after the baseline. Both sides
 are single-threaded; the ratio is of CPU (process) times, robust on a shared machine, and
@@ -41,8 +41,8 @@ import time
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from hgo.config import compose
-from hgo.runner import build, simulate_config
+from hgo.core.config import compose
+from hgo.running.runner import build, simulate_config
 
 PRESET = "experiment=apa_fig2"
 

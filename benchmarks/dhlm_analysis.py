@@ -44,7 +44,7 @@ from timing import interleaved_median_times
 from hgo.engine import simulate as engine
 from hgo.engine.codegen import load_kernel
 from hgo.papers.dimassi.reference import X0, Example
-from hgo.runner import run_experiment
+from hgo.running.runner import run_experiment
 
 HORIZON = 20.0
 FAST_POLE = 4.0 / Example().eps  # |-gamma-root| of the HGO (27): s^2 + 6 s/eps + 8/eps^2

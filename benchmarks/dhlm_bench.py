@@ -67,9 +67,9 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from timing import interleaved_median_times
 
-from hgo.config import compose
+from hgo.core.config import compose
 from hgo.papers.dimassi.reference import X0, Example
-from hgo.runner import Experiment, build, run_experiment
+from hgo.running.runner import Experiment, build, run_experiment
 
 METHODS_HGO = ("dop853", "dopri5")
 RTOLS_HGO = (1e-6, 3e-7, 1e-7, 3e-8, 1e-8, 3e-9, 1e-9, 3e-10, 1e-10)

@@ -4,7 +4,7 @@
 
 The jobs of ``conf/experiment/moreno_pe.yaml`` (a in {0, 0.5, 1} x l2 in {120, 20} x five
 inputs, 40 s each, e0 = (70, -50): a stiff start, Jacobian ~2e5) are built through hgo's
-normal path (Hydra compose -> build) and run by ``hgo.runner.run_experiment`` (DOP853,
+normal path (Hydra compose -> build) and run by ``hgo.running.runner.run_experiment`` (DOP853,
 rtol 1e-10, atol 1e-12, h_max 0.01 s, output grid 1 ms: every signal recorded), after one
 compiling run; hgo's time is the sum over jobs of the median of ``reps`` runs. The baseline
 integrates the same ODE (plant in original coordinates + observer (3), 4 states,
@@ -58,9 +58,9 @@ import time
 
 import numpy as np
 
-from hgo.config import compose
+from hgo.core.config import compose
 from hgo.papers.moreno.reference import reference_run
-from hgo.runner import build, run_experiment
+from hgo.running.runner import build, run_experiment
 
 INPUTS = ("moreno_bad", "moreno_pulse", "moreno_sin", "moreno_sin5", "moreno_sin1")
 # solve_ivp settings (method, rtol, max_step, right-hand side; atol = rtol / 100, max_step

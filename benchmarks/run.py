@@ -78,11 +78,11 @@ def main() -> None:
     quick = args.quick
     only = set(args.only.split(",")) if args.only else {"core", "sweeps", *PAPER_ROWS}
     rows = only & set(SWEEP_ROWS)
-    if "sweeps" in only or rows:
-        import sweeps_bench
-
-        sweeps = sweeps_bench.bench(quick, None if "sweeps" in only else rows)
-        print("\nsweeps: " + " ".join(f"{k}={v:.3g}" for k, v in sweeps.items()))
+    if "sweeps" in only or rows:  # its own process: sweeps_bench.py imports this module's cases
+        subprocess.run([sys.executable, str(Path(__file__).with_name("sweeps_bench.py")),
+                        *(["--quick"] if quick else []),
+                        *([] if "sweeps" in only else ["--only", ",".join(sorted(rows))])],
+                       check=True)
     for name in sorted(only & set(PAPER_ROWS)):
         row = importlib.import_module(f"{name}_bench").bench(quick)
         print(f"\n{name}: {row}\n{name}: speedup_vs_solve_ivp={row[PAPER_ROWS[name]]:.0f}")
@@ -345,8 +345,8 @@ def b_work_precision(system: System, ref: np.ndarray, ivp: tuple[float, float],
 def logging_row(label: str, system: System, solver: SolverSettings, noise: Noise, reps: int,
                 quick: bool) -> list:
     """Simulate one run and write its recording: both times, their ratio, the file size."""
-    from hgo.recording import write_recording
-    from hgo.runner import signals
+    from hgo.outputs.recording import write_recording
+    from hgo.running.runner import signals
 
     simulate(system, solver, noise)
     t_sim, tr = median_time(lambda: simulate(system, solver, noise), reps)

@@ -4,7 +4,7 @@
 
 * ``hgo --help`` (target < 1 s) and a cached ``hgo run experiment=sp_fig1`` (target < 1.5 s),
   medians of ``--reps`` whole processes (wall clock; the run's kernel is compiled first);
-* ``hgo.runs.load`` over 1,000 run directories (target < 2 s), median of 3.
+* ``hgo.outputs.runs.load`` over 1,000 run directories (target < 2 s), median of 3.
 
 The last line is ``startup: help=<s> run=<s> index_1000=<s>``.
 """
@@ -24,7 +24,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from hgo.runs import load, write_run_json
+from hgo.outputs.runs import load, write_run_json
 
 HGO = shutil.which("hgo") or f"{sys.executable} -m hgo.cli"
 

@@ -13,7 +13,7 @@ Rows (ratios are taken inside the same run; the machine may be shared):
   in-process and whole process.
 * recording: problems A and B of ``run.py`` with 1,000,001 output samples: simulation,
   ``write_recording`` of every series (full) and the decimated recording (min/max
-  envelope into 2^14 rows, :mod:`hgo.decimate`, envelope included), against the
+  envelope into 2^14 rows, :mod:`hgo.outputs.decimate`, envelope included), against the
   simulation.
 * memory: a Hydra sweep of 1,000,001-sample runs (S-P ``sp_example``, 100 s output every
   0.1 ms, full recordings) and, full run only, the same number of tiny jobs (what Hydra
@@ -72,8 +72,8 @@ def sp_grid_override(n: int = SP_GRID_N) -> str:
 
 def _in_process(overrides: list[str], reps: int) -> tuple[float, object]:
     """Median wall time of run_ensemble (compose excluded) after one warm-up run."""
-    from hgo.config import compose
-    from hgo.ensemble_runner import run_ensemble
+    from hgo.core.config import compose
+    from hgo.running.ensemble_runner import run_ensemble
 
     with tempfile.TemporaryDirectory() as tmp:
         cfg = compose(overrides, Path(tmp))
@@ -111,10 +111,10 @@ def grid_rows(quick: bool) -> list[list]:
 def recording_rows(quick: bool) -> list[list]:
     import problems as b
 
-    from hgo.decimate import envelope
     from hgo.engine.simulate import SolverSettings, no_noise, simulate
-    from hgo.recording import write_recording
-    from hgo.runner import signals
+    from hgo.outputs.decimate import envelope
+    from hgo.outputs.recording import write_recording
+    from hgo.running.runner import signals
 
     n_log = 10**6
     cases = [(f"B: {b.B_T:g} s, output every {b.B_T / n_log * 1e3:g} ms, "

@@ -1,6 +1,6 @@
 """Hydra entry point: ``python experiments/run.py experiment=sp_fig1`` (add ``-m`` to sweep);
-the same as ``hgo run experiment=sp_fig1`` (see :mod:`hgo.app`; errors are one line, see
-:mod:`hgo.job`)."""
+the same as ``hgo run experiment=sp_fig1`` (see :mod:`hgo.cli.app`; errors are one line, see
+:mod:`hgo.running.job`)."""
 
 import sys
 

@@ -15,8 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from hgo.core.errors import ConfigError
 from hgo.engine.simulate import Noise
-from hgo.errors import ConfigError
 
 
 @dataclass(frozen=True)

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from hgo.config import compose as compose_config
-from hgo.config import conf_dir
+from hgo.core.config import compose as compose_config
+from hgo.core.config import conf_dir
 
 CONF_DIR = str(conf_dir())
 

@@ -56,9 +56,9 @@ def _rows(table) -> dict[str, float]:
 
 def run_case(overrides: tuple[str, ...]) -> dict[str, float]:
     """The metric rows of one case, computed with the code of the moment."""
-    from hgo.claims import compose_cached
-    from hgo.ensemble_runner import is_ensemble, run_ensemble
-    from hgo.runner import simulate_config
+    from hgo.running.ensemble_runner import is_ensemble, run_ensemble
+    from hgo.running.in_memory import compose_cached
+    from hgo.running.runner import simulate_config
 
     cfg = compose_cached(overrides)
     if is_ensemble(cfg):

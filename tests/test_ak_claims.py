@@ -1,6 +1,6 @@
 """Ahrens & Khalil (2008) claims 1-4 on real runs through the Hydra path.
 
-Each run is composed from the presets (``compose_config`` + ``hgo.runner.build`` /
+Each run is composed from the presets (``compose_config`` + ``hgo.running.runner.build`` /
 ``run_experiment`` / ``postprocess``), i.e. the configs the commands of the README run,
 with shorter horizons where the claim allows. Setup (ak_fig1/ak_fig2): DC motor (38)-(39),
 speed controller (r' a smoothed step to 10 rad/s over 1 s, k = 5), H1 = (71/eps1, 70/eps1^2)
@@ -20,7 +20,7 @@ from conftest import compose_config
 from omegaconf import open_dict
 
 from hgo.papers.ahrens_khalil.postprocess import analyse_tradeoff
-from hgo.runner import build, postprocess, run_experiment
+from hgo.running.runner import build, postprocess, run_experiment
 
 LOOPS = ("switched", "fixed_eps2", "fixed_eps1")
 

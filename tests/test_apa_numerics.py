@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hgo.claims import run_in_memory, run_rows
+from hgo.running.in_memory import run_in_memory, run_rows
 
 OBS = ("df2max", "omega1", "omega2")
 METRICS = ("bias_late", "std_late", "rms_post", "bias_w1", "std_w1", "std_w3", "mean_Omega",

@@ -18,7 +18,7 @@ from hgo.observers.homogeneous_dynamic import (
     linear_gains,
 )
 from hgo.plants.contois import invariance_eps, rate_bound, x2_high, x2_low
-from hgo.runner import run
+from hgo.running.runner import run
 
 
 @pytest.mark.parametrize(("d", "hom", "gains"), [(0.0, True, (2.0, 12.0)),
@@ -92,7 +92,7 @@ def test_schedule_errors_and_values():
 @pytest.fixture(scope="module")
 def paper_run(tmp_path_factory):
     """apa_fig2 through runner.run (files written), horizon 50."""
-    from hgo.config import compose
+    from hgo.core.config import compose
 
     out = tmp_path_factory.mktemp("apa_fig2")
     return run(compose(["experiment=apa_fig2"], out), out)
@@ -125,15 +125,15 @@ def test_initial_gains_are_the_equilibrium_of_8(paper_run):
         p = obs.p
         L = traj.z[:, a + 2]
         if obs.name == "df2max":
-            assert np.all(L == p[3] + p[4] / p[2] * p[12])
+            assert np.all(L == p.phi2 + p.phi3 / p.phi1 * p.df2max)
             continue
-        eps1, eps2 = p[10], p[11]
+        eps1, eps2 = p.eps1, p.eps2
         ys = min(max(y0, eps1), 1 - eps2)
         lo, hi = x2_low(ys, eps2, 0.8), x2_high(ys, 0.8)
         xh = min(max(obs.z0[1], lo), hi)
         q = 0.0 if obs.name == "omega1" else 0.9
-        assert L[0] == pytest.approx(p[3] + p[4] / p[2] * rate_bound(u0, ys, xh, lo, hi, 0.8, q),
-                                     rel=1e-12)
+        assert L[0] == pytest.approx(p.phi2 + p.phi3 / p.phi1
+                                     * rate_bound(u0, ys, xh, lo, hi, 0.8, q), rel=1e-12)
 
 
 @pytest.mark.parametrize(("preset", "hbar_o", "noise"), [
@@ -142,13 +142,13 @@ def test_initial_gains_are_the_equilibrium_of_8(paper_run):
 def test_presets_build_the_scenarios_of_the_notes(preset, hbar_o, noise):
     """Each preset composes and builds: the observers' hbar_o, the noise, and the constants
     computed from hbar_o (eps2 = u_min hbar/(1 - u_min (1 - hbar)), df2max from the search)."""
-    from hgo.config import compose
+    from hgo.core.config import compose
     from hgo.plants.contois import df2max
-    from hgo.runner import build
+    from hgo.running.runner import build
 
     exp = build(compose([f"experiment={preset}"]))
     assert exp.noise.kind == noise and exp.system.plant.p[0] == 1.0
     for obs in exp.system.observers:
-        assert obs.p[9] == hbar_o
-        assert obs.p[11] == pytest.approx(0.01 * hbar_o / (1 - 0.01 * (1 - hbar_o)), rel=1e-14)
-        assert obs.p[12] == df2max(hbar_o, 0.01, 0.7)["df2max"]
+        assert obs.p.hbar == hbar_o
+        assert obs.p.eps2 == pytest.approx(0.01 * hbar_o / (1 - 0.01 * (1 - hbar_o)), rel=1e-14)
+        assert obs.p.df2max == df2max(hbar_o, 0.01, 0.7)["df2max"]

@@ -1,8 +1,8 @@
 """Bad input gets one clear line naming the key: a corpus of bad configurations.
 
 Each case of ``CORPUS`` is (overrides, expected text): composing the config and checking
-it (``hgo.job.check_config``: everything a run checks before integrating, nothing
-integrated) must raise, and :func:`hgo.errors.one_line` of the error must be one line that
+it (``hgo.running.job.check_config``: everything a run checks before integrating, nothing
+integrated) must raise, and :func:`hgo.core.errors.one_line` of the error must be one line that
 contains the expected text (the full key, or the key the message points at). A case
 that composes and checks without error is a silent accept and fails. Add a component's
 bad values by appending rows (``P_<paper>`` picks the preset).
@@ -20,9 +20,9 @@ from pathlib import Path
 
 import pytest
 
-from hgo.config import compose
-from hgo.errors import ConfigError, one_line
-from hgo.job import check_config
+from hgo.core.config import compose
+from hgo.core.errors import ConfigError, one_line
+from hgo.running.job import check_config
 
 SP = "experiment=sp_fig1"  # sp_linear + sp_pair (two law (4)/(6) observers) + sp_bounds
 OSC = "experiment=sp_fig4"  # sp_single + oscillation + notch + sp_bounds

@@ -1,4 +1,4 @@
-"""Every claim of the registry (:mod:`hgo.claims`) as one test.
+"""Every claim of the registry (:mod:`hgo.core.registry`) as one test.
 
 A claim passes when its function measures that the statement holds. A ``not reproduced``
 claim is an xfail whose reason is the measured numbers, and strict: it fails the suite if
@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import pytest
 
-from hgo.claims import NOT_REPRODUCED, Claim, all_claims
+from hgo.core.registry import NOT_REPRODUCED, Claim, all_claims
 
 
 def _param(c: Claim):

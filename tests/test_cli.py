@@ -12,7 +12,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from hgo.runs import load, write_run_json
+from hgo.outputs.runs import load, write_run_json
 
 HGO = shutil.which("hgo")
 pytestmark = pytest.mark.skipif(HGO is None, reason="the hgo console script is not installed")

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from hgo.components import Plant
+from hgo.core.components import Plant
 from hgo.engine.simulate import SolverSettings, no_noise, simulate
 from hgo.engine.system import System
 from hgo.noise import noise_model

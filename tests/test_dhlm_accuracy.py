@@ -13,7 +13,7 @@ import math
 import numpy as np
 import pytest
 
-from hgo.claims import run_in_memory
+from hgo.running.in_memory import run_in_memory
 
 NOMINAL = ("experiment=dhlm_example",)
 NO_THEORY = ("postprocess.dhlm.theory=false",)

@@ -7,7 +7,7 @@ import pytest
 
 from hgo.observers import adaptive_cascade as ac
 from hgo.papers.dimassi.reference import X0, Example
-from hgo.runner import build, run_experiment
+from hgo.running.runner import build, run_experiment
 
 A = [[0.0, 1.0], [0.0, 0.0]]
 B = [[0.0], [1.0]]

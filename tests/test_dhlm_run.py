@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from hgo.recording import read_arrays
-from hgo.runner import run
+from hgo.outputs.recording import read_arrays
+from hgo.running.runner import run
 
 
 def test_dhlm_example_writes_figures_recording_and_metrics(compose, tmp_path):

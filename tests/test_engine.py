@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from hgo.components import Observer, Plant
+from hgo.core.components import Observer, Plant
 from hgo.engine import codegen, tableau
 from hgo.engine.simulate import Noise, SolverSettings, no_noise, simulate, simulate_ensemble
 from hgo.engine.system import System
-from hgo.ensemble import stack_members
 from hgo.observers.triangular import triangular_hgo
 from hgo.plants.sp_linear import sp_linear_plant
+from hgo.running.ensemble import stack_members
 
 P1, B, NU1 = 4 / 3, 0.28, 3.0
 

@@ -123,7 +123,7 @@ def test_ctrl_c_stops_a_long_compiled_integration_within_a_second(tmp_path):
 
     import pandas as pd
 
-    from hgo.recording import read_recording, read_texts
+    from hgo.outputs.recording import read_recording, read_texts
 
     warm = _run_cli([*SHORT, f"hydra.run.dir={tmp_path}/warm"], tmp_path)  # compile
     assert warm.wait(timeout=300) == 0, warm.stderr.read()
@@ -176,10 +176,10 @@ def _interrupt_in(monkeypatch, target: str, exc: BaseException, after: int = 1) 
 
 CTRL_C_WRITER = textwrap.dedent('''
     import sys
-    import hgo.recording
-    from hgo.config import compose
-    from hgo.job import run_job
-    send = hgo.recording._send_series
+    import hgo.outputs.recording
+    from hgo.core.config import compose
+    from hgo.running.job import run_job
+    send = hgo.outputs.recording._send_series
     calls = {"n": 0}
 
     def interrupted(*args, **kwargs):  # KeyboardInterrupt where SIGINT would raise it
@@ -188,7 +188,7 @@ CTRL_C_WRITER = textwrap.dedent('''
             raise KeyboardInterrupt
         return send(*args, **kwargs)
 
-    hgo.recording._send_series = interrupted
+    hgo.outputs.recording._send_series = interrupted
     run_job(compose(SHORT, sys.argv[1]), sys.argv[1])
 ''')
 
@@ -201,7 +201,7 @@ def test_ctrl_c_while_writing_leaves_only_a_partial_recording(tmp_path):
     every recording of processes later forked from it (hgo reproduce's workers)."""
     import pytest
 
-    from hgo.recording import RecordingIncomplete, read_recording
+    from hgo.outputs.recording import RecordingIncomplete, read_recording
 
     script = f"SHORT = {SHORT!r}\n" + CTRL_C_WRITER
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
@@ -224,8 +224,8 @@ def test_full_disk_fails_the_job_with_one_line_and_no_complete_looking_file(
 
     import pandas as pd
 
-    from hgo.config import compose as compose_config
-    from hgo.job import run_job
+    from hgo.core.config import compose as compose_config
+    from hgo.running.job import run_job
 
     cfg = compose_config(SHORT, tmp_path)
     full = OSError(errno.ENOSPC, "No space left on device")
@@ -246,7 +246,7 @@ def test_full_disk_fails_the_job_with_one_line_and_no_complete_looking_file(
 
 KILL_WRITER = textwrap.dedent('''
     import numpy as np, sys
-    from hgo.recording import Series, write_recording
+    from hgo.outputs.recording import Series, write_recording
     n = 3_000_000
     t = np.arange(n) * 1e-3
     series = [Series(f"/s{k}", ["a", "b", "c"], np.random.default_rng(k).random((n, 3)))
@@ -262,7 +262,7 @@ def test_sigkill_while_writing_leaves_no_complete_looking_file(tmp_path):
 
     import pytest
 
-    from hgo.recording import RecordingIncomplete, read_recording
+    from hgo.outputs.recording import RecordingIncomplete, read_recording
 
     target = tmp_path / "recording.rrd"
     partial = tmp_path / "recording.rrd.partial"
@@ -287,8 +287,8 @@ def test_sigkill_while_writing_leaves_no_complete_looking_file(tmp_path):
 def test_resume_skips_complete_jobs_and_redoes_the_others(tmp_path):
     """``resume=true`` skips a job whose directory holds complete outputs of the same
     composed config; a changed config, a missing file or a failed run is redone."""
-    from hgo.config import compose as compose_config
-    from hgo.job import DONE, is_complete, run_job
+    from hgo.core.config import compose as compose_config
+    from hgo.running.job import DONE, is_complete, run_job
 
     cfg = compose_config([*SHORT, "resume=true"], tmp_path)
     assert run_job(cfg, tmp_path) == 0 and is_complete(cfg, tmp_path)

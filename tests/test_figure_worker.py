@@ -1,5 +1,5 @@
 """``hgo run`` of a single run draws its figures in a forked process
-(:mod:`hgo.figure_worker`): the same files, the same errors, matplotlib never imported
+(:mod:`hgo.running.figure_worker`): the same files, the same errors, matplotlib never imported
 by the run's own process."""
 
 from __future__ import annotations
@@ -12,9 +12,9 @@ from pathlib import Path
 
 import pytest
 
-from hgo.config import compose
-from hgo.figure_worker import FigureWorker
-from hgo.runner import run
+from hgo.core.config import compose
+from hgo.running.figure_worker import FigureWorker
+from hgo.running.runner import run
 
 ROOT = Path(__file__).resolve().parents[1]
 SHORT = ["experiment=sp_fig1", "solver.t_end=6", "metrics.window=2"]
@@ -50,7 +50,7 @@ def hgo_run(tmp_path: Path, *overrides: str) -> subprocess.CompletedProcess:
 
 def test_forked_figure_is_the_in_process_one_and_the_run_never_imports_matplotlib(tmp_path):
     """sp_fig1 over 6 s: fig1.png from ``hgo run`` (forked) equals, byte for byte, the one
-    ``hgo.runner.run`` draws in its own process; the run's process has not imported
+    ``hgo.running.runner.run`` draws in its own process; the run's process has not imported
     matplotlib when it ends."""
     forked = tmp_path / "forked"
     proc = hgo_run(tmp_path, *SHORT, f"hydra.run.dir={forked}")

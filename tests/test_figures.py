@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import pytest
 
-from hgo.aggregate import figure_label
-from hgo.config import compose
-from hgo.figures import hat, math_label
-from hgo.runner import run
+from hgo.core.config import compose
+from hgo.outputs.figures import hat, math_label
+from hgo.running.aggregate import figure_label
+from hgo.running.runner import run
 
 
 def test_figures_format_svg_writes_svg(tmp_path):

@@ -10,7 +10,7 @@ from pathlib import Path
 
 PLANT = textwrap.dedent('''
     import numpy as np
-    from hgo.components import Plant
+    from hgo.core.components import Plant
     from hgo.engine.jit import kernel_helper
 
     @kernel_helper

@@ -6,8 +6,8 @@ import math
 
 import pytest
 
-from hgo.claims import run_in_memory
-from hgo.metrics import verdict
+from hgo.outputs.metrics import verdict
+from hgo.running.in_memory import run_in_memory
 
 
 @pytest.mark.parametrize("value, bound, factor, expected", [

@@ -6,10 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hgo.claims import run_in_memory
-from hgo.config import compose
+from hgo.core.config import compose
 from hgo.papers.moreno.reference import joint_rhs, plain_rhs, reference_run
-from hgo.runner import build, simulate_config
+from hgo.running.in_memory import run_in_memory
+from hgo.running.runner import build, simulate_config
 
 FIG1 = ("experiment=moreno_fig1",)
 

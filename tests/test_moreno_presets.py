@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from hgo.config import compose
-from hgo.recording import read_arrays
-from hgo.runner import run
+from hgo.core.config import compose
+from hgo.outputs.recording import read_arrays
+from hgo.running.runner import run
 
 
 def test_fig1_preset_writes_figure_recording_and_metrics(tmp_path):

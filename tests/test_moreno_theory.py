@@ -8,9 +8,9 @@ import pytest
 from hgo.controllers.profile_input import profile, profile_input
 from hgo.observers.circle_criterion import circle_criterion_observer
 from hgo.papers.moreno import theory as th
+from hgo.papers.moreno.postprocess import first_time_below, moreno_certificate, windowed_alpha
 from hgo.papers.moreno.sector_table import example_error_system
 from hgo.plants.circle_form import circle_form_plant, moreno_example_plant
-from hgo.postprocess.moreno import first_time_below, moreno_certificate, windowed_alpha
 
 GAINS = [(2, 200, 120, 0), (1, 50, 10, 0), (5, 1000, 500, 0), (2, 200, 120, 0.5),
          (2, 200, 20, 0.5), (2, 200, 120, 1), (2, 200, 10, 0.1)]

@@ -11,12 +11,12 @@ import numpy as np
 import pytest
 from scipy.linalg import expm
 
-from hgo.components import Params, Plant
+from hgo.core.components import Params, Plant
 from hgo.engine.codegen import kernel_source
 from hgo.engine.simulate import SolverSettings, no_noise, simulate, simulate_ensemble
 from hgo.engine.system import System
-from hgo.ensemble import stack_members
 from hgo.observers.triangular import triangular_hgo
+from hgo.running.ensemble import stack_members
 
 A_DAMPED = [[0.0, 1.0], [-2.0, -0.3]]
 

@@ -1,4 +1,4 @@
-"""Tests for hgo.recording: columnar Rerun logging and reading it back."""
+"""Tests for hgo.outputs.recording: columnar Rerun logging and reading it back."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import rerun.blueprint as rrb
 
-from hgo.recording import (
+from hgo.outputs.recording import (
     Series,
     read_arrays,
     read_recording,
@@ -123,7 +123,7 @@ def test_rerun_off_writes_nothing(tmp_path: Path, monkeypatch: pytest.MonkeyPatc
 
 
 def test_inner_wildcard_expansion() -> None:
-    from hgo.recording import _view_contents
+    from hgo.outputs.recording import _view_contents
 
     entities = ["/observer/sp6/r", "/observer/a/b/r", "/observer/sp6/xhat", "/error/sp6"]
     got = _view_contents(["/observer/**/r", "-/error/sp*", "/plant/**"], entities, "v")
@@ -141,7 +141,7 @@ def test_zero_samples(tmp_path: Path) -> None:
 
 def test_blocks_and_strided_values(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """Several send_columns blocks (last one partial), column slices of a wider array."""
-    import hgo.recording as recording
+    import hgo.outputs.recording as recording
 
     monkeypatch.setattr(recording, "CHUNK_ROWS", 4)
     n = 11

@@ -12,8 +12,8 @@ from pathlib import Path
 
 import pytest
 
-from hgo.claims import all_claims
-from hgo.reproduce import main, paper_figures, reproduce
+from hgo.core.registry import all_claims
+from hgo.reproduce.run import main, paper_figures, reproduce
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER = "sanfelice_praly"
@@ -87,7 +87,7 @@ def test_report_in_a_headless_browser(report, tmp_path):
 
 
 def test_readme_what_reproduces_table_is_the_registry():
-    from hgo.report import registry_table
+    from hgo.reproduce.report import registry_table
 
     readme = (ROOT / "README.md").read_text()
     start, end = "<!-- what-reproduces:start -->\n", "<!-- what-reproduces:end -->"

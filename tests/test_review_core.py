@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 from hgo.engine.simulate import no_noise, simulate
-from hgo.ensemble_runner import run_ensemble
-from hgo.runner import solver_settings
+from hgo.running.ensemble_runner import run_ensemble
+from hgo.running.runner import solver_settings
 
 
 def test_rk4_ensemble_caps_steps_with_the_stiffest_member(compose, tmp_path):

@@ -11,9 +11,9 @@ import pandas as pd
 import pytest
 from hydra.errors import ConfigCompositionException
 
-from hgo.components import Plant
-from hgo.recording import read_arrays
-from hgo.runner import SimulationFailed, run
+from hgo.core.components import Plant
+from hgo.outputs.recording import read_arrays
+from hgo.running.runner import SimulationFailed, run
 
 ROOT = Path(__file__).resolve().parents[1]
 SHORT = ["solver.t_end=20", "solver.dt_out=0.01", "metrics.window=5"]

@@ -22,7 +22,7 @@ from hgo.observers.collection import sp_collection
 from hgo.observers.triangular import triangular_hgo
 from hgo.postprocess.notch import discrete_notch, filter_signal
 from hgo.postprocess.oscillation import spectral_period, zero_crossing_period
-from hgo.runner import build, run, run_experiment
+from hgo.running.runner import build, run, run_experiment
 
 ROOT = Path(__file__).resolve().parents[1]
 OSC_SHORT = ["solver.t_end=40", "metrics.window=20"]
@@ -300,7 +300,7 @@ def test_aggregate_combines_jobs_and_skips_failed_ones(runs, tmp_path, capsys):
     one failed run: one CSV, a Markdown table with the overrides, the comparison figure."""
     import shutil
 
-    from hgo.aggregate import aggregate
+    from hgo.running.aggregate import aggregate
 
     sweep = tmp_path / "sweep"
     for k, p2 in enumerate(P2S):

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hgo.runner import build, run_experiment
+from hgo.running.runner import build, run_experiment
 
 NU1 = NU2 = 0.01
 

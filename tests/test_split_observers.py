@@ -14,9 +14,9 @@ import pytest
 
 from hgo.controllers.dc_motor_speed import dc_motor_speed_controller
 from hgo.controllers.open_loop import open_loop_controller
+from hgo.core.errors import ConfigError
 from hgo.engine.simulate import Noise, SolverSettings, simulate, simulate_ensemble
 from hgo.engine.system import System
-from hgo.errors import ConfigError
 from hgo.observers.switched_hgo import switched_hgo
 from hgo.plants.dc_motor import dc_motor_plant
 

@@ -11,14 +11,14 @@ import pytest
 import yaml
 from omegaconf import OmegaConf
 
-from hgo.console import ensemble_table
-from hgo.decimate import bucket_edges, envelope, write_run_recording
-from hgo.ensemble_runner import merge_shards, run_ensemble
-from hgo.grid import expand_grid, parse_shard, shard_indices
+from hgo.outputs.console import ensemble_table
+from hgo.outputs.decimate import bucket_edges, envelope, write_run_recording
+from hgo.outputs.recording import Series, read_arrays
+from hgo.outputs.runs import load
 from hgo.papers.ahrens_khalil.figures import tradeoff_point, write_tradeoff_report
-from hgo.recording import Series, read_arrays
-from hgo.runner import job_config_yaml, simulate_config
-from hgo.runs import load
+from hgo.running.ensemble_runner import merge_shards, run_ensemble
+from hgo.running.grid import expand_grid, parse_shard, shard_indices
+from hgo.running.runner import job_config_yaml, simulate_config
 
 SP_GRID = ["experiment=sp_ensemble", "ensemble.size=0", "solver.t_end=20",
            "metrics.window=5",
@@ -125,7 +125,7 @@ def test_merged_shards_equal_the_unsharded_table(compose, tmp_path):
 
 @pytest.fixture(scope="module")
 def ak_grid(tmp_path_factory):
-    from hgo.config import compose
+    from hgo.core.config import compose
 
     out = tmp_path_factory.mktemp("ak_grid")
     return run_ensemble(compose(["experiment=ak_tradeoff_grid"], out), out), out
@@ -197,7 +197,7 @@ def test_envelope_keeps_every_peak_and_fits_max_rows():
 def test_recording_modes_never_change_metrics(compose, tmp_path, mode):
     """metrics.csv is the same in full, decimated and off; decimated writes <= max_rows
     rows and says so in /run/config; off writes no recording."""
-    from hgo.runner import run
+    from hgo.running.runner import run
 
     base = ["experiment=sp_fig3", "solver.t_end=20", "metrics.window=5", "figures={}"]
     full = run(compose(base, tmp_path / "full"), tmp_path / "full").metrics
@@ -217,7 +217,7 @@ def test_recording_modes_never_change_metrics(compose, tmp_path, mode):
 
 def test_decimated_recording_says_so_in_run_config(monkeypatch, tmp_path):
     captured = {}
-    monkeypatch.setattr("hgo.decimate.write_recording",
+    monkeypatch.setattr("hgo.outputs.decimate.write_recording",
                         lambda path, t, series, text, **kw: captured.update(text=text, t=t))
     node = OmegaConf.create({"mode": "decimated", "max_rows": 64})
     t = np.linspace(0, 1, 1001)
@@ -238,7 +238,7 @@ def test_every_configured_target_is_importable_from_the_package():
     and imports: a launcher that runs jobs or callbacks elsewhere finds them."""
     from hydra.utils import get_object
 
-    from hgo.config import conf_dir
+    from hgo.core.config import conf_dir
 
     targets = set()
     for path in conf_dir().rglob("*.yaml"):
@@ -246,7 +246,7 @@ def test_every_configured_target_is_importable_from_the_package():
             key, _, value = line.strip().partition(":")
             if key == "_target_" and "hydra_plugins" not in value:
                 targets.add(value.strip())
-    assert "hgo.aggregate.AggregateCallback" in targets and len(targets) > 10
+    assert "hgo.running.aggregate.AggregateCallback" in targets and len(targets) > 10
     for target in sorted(targets):
         assert target.startswith("hgo."), target
         assert get_object(target) is not None, target
@@ -262,7 +262,7 @@ def test_submitit_local_sweep_with_its_aggregation_callback(tmp_path):
     import subprocess
     import sys
 
-    from hgo.config import conf_dir
+    from hgo.core.config import conf_dir
 
     root = conf_dir().parent
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(root),
@@ -283,7 +283,7 @@ def test_submitit_local_sweep_with_its_aggregation_callback(tmp_path):
     assert (sweep / "compare.png").stat().st_size > 0
     assert "job2" in (sweep / "metrics_all.md").read_text()
     # the grid ensemble of the same points writes the same table (member k = job k)
-    from hgo.config import compose
+    from hgo.core.config import compose
 
     grid_dir = tmp_path / "grid"
     run_ensemble(compose(["experiment=sp_fig3_grid", "solver.t_end=10", "metrics.window=5"],
@@ -309,7 +309,7 @@ def test_recordings_leave_no_threads_behind(tmp_path):
 
     from rerun.chunk import RrdReader
 
-    from hgo.recording import time_series_blueprint, write_recording
+    from hgo.outputs.recording import time_series_blueprint, write_recording
 
     def threads() -> int:
         return len(list(Path("/proc/self/task").iterdir()))
@@ -336,7 +336,7 @@ def test_freed_memory_goes_back_to_the_os():
 
     if not hasattr(ctypes.CDLL(None), "malloc_trim"):
         pytest.skip("no glibc malloc_trim")
-    code = ("from hgo.memory import release_freed_memory\n"
+    code = ("from hgo.core.memory import release_freed_memory\n"
             "def resident_kb():\n"
             "    with open('/proc/self/status') as fh:\n"
             "        return next(int(x.split()[1]) for x in fh if x.startswith('VmRSS:'))\n"
@@ -360,7 +360,7 @@ def test_exit_skips_the_final_collection_but_runs_exit_handlers(tmp_path):
 
     log = tmp_path / "log.txt"
     code = ("import logging\n"
-            "from hgo.memory import skip_exit_collection\n"
+            "from hgo.core.memory import skip_exit_collection\n"
             "skip_exit_collection(); skip_exit_collection()\n"
             f"logging.basicConfig(filename={str(log)!r})\n"
             "logging.getLogger('x').warning('written at exit')\n"
@@ -371,7 +371,7 @@ def test_exit_skips_the_final_collection_but_runs_exit_handlers(tmp_path):
 
 
 def test_member_nodes_take_the_fast_path_unless_a_target_is_nested():
-    from hgo.runner import _has_nested_target
+    from hgo.running.runner import _has_nested_target
 
     assert not _has_nested_target({"K": [2.0, 2.0], "M": [[3.0, 0.0], [0.0, 0.0]], "c": None})
     assert _has_nested_target({"K": [2.0, {"x": [{"_target_": "a.b"}]}]})
@@ -384,7 +384,7 @@ def test_sweep_summary_drops_each_jobs_configs_from_hydras_job_return(compose, t
     from hydra.core.utils import JobReturn, JobStatus
     from hydra.types import RunMode
 
-    from hgo.aggregate import SweepSummary
+    from hgo.running.aggregate import SweepSummary
 
     cfg = compose(["experiment=sp_example"], tmp_path)
     for mode, kept in ((RunMode.RUN, True), (RunMode.MULTIRUN, False)):

@@ -23,7 +23,7 @@ rest), no sinusoid. Default gain k = 5 1/s (velocity-loop time constant 0.2 s, 2
 slower than the eps2 = 0.01 observer, so the observer is the fast subsystem). a = b = 0.1
 are the motor's true coefficients (the observer's phi0 carries the model error).
 
-Parameters p = [a, b, k, x3_min, u_max, w0, w_step, t_step, T_rise, a_sin, omega_sin].
+Parameters (by name): a, b, k, x3_min, u_max, w0, w_step, t_step, T_rise, a_sin, omega_sin.
 """
 
 from __future__ import annotations
@@ -32,18 +32,13 @@ import math
 
 import numpy as np
 
-from hgo.components import Controller
+from hgo.core.components import Controller, Params
 from hgo.engine.jit import kernel_helper
-
-#: Names of the entries of the parameter vector p.
-PARAM_NAMES = ["a", "b", "k", "x3_min", "u_max", "w0", "w_step", "t_step", "T_rise", "a_sin",
-               "omega_sin"]
 
 
 @kernel_helper
-def reference(t, p):
-    """(r'(t), r''(t)): smoothed step plus sinusoid, parameters p[5:11]."""
-    w0, w_step, t_step, t_rise, a_sin, omega = p[5], p[6], p[7], p[8], p[9], p[10]
+def reference(t, w0, w_step, t_step, t_rise, a_sin, omega):
+    """(r'(t), r''(t)): smoothed step plus sinusoid (the module doc's r')."""
     s = (t - t_step) / t_rise
     if s <= 0.0:
         step, dstep = 0.0, 0.0
@@ -62,27 +57,29 @@ def reference(t, p):
 
 def u(t, xhat, y, p, u_out):
     """u = (v + a x^2) / (b x3), v = r'' - k (x^2 - r') (feedback linearisation)."""
-    rd, rdd = reference(t, p)
-    v = rdd - p[2] * (xhat[1] - rd)
+    rd, rdd = reference(t, p.w0, p.w_step, p.t_step, p.T_rise, p.a_sin, p.omega_sin)
+    v = rdd - p.k * (xhat[1] - rd)
     x3 = y[1]
-    if abs(x3) < p[3]:
-        x3 = p[3] if x3 >= 0.0 else -p[3]
-    val = (v + p[0] * xhat[1]) / (p[1] * x3)
-    u_out[0] = min(max(val, -p[4]), p[4])
+    if abs(x3) < p.x3_min:
+        x3 = p.x3_min if x3 >= 0.0 else -p.x3_min
+    val = (v + p.a * xhat[1]) / (p.b * x3)
+    u_out[0] = min(max(val, -p.u_max), p.u_max)
 
 
-def velocity_reference(p: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """r'(t) and r''(t) on the times t, for logging the reference next to x2."""
+def velocity_reference(p, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """r'(t) and r''(t) on the times t, for logging the reference next to x2 (``p``: the
+    controller's parameters)."""
     t = np.atleast_1d(np.asarray(t, float))
     out = np.empty((t.size, 2))
-    _reference_grid(t, np.asarray(p, float), out)  # one compiled loop, not a call per sample
+    # one compiled loop, not a call per sample
+    _reference_grid(t, p.w0, p.w_step, p.t_step, p.T_rise, p.a_sin, p.omega_sin, out)
     return out[:, 0], out[:, 1]
 
 
 @kernel_helper
-def _reference_grid(t, p, out):
+def _reference_grid(t, w0, w_step, t_step, t_rise, a_sin, omega, out):
     for k in range(t.shape[0]):
-        out[k, 0], out[k, 1] = reference(t[k], p)
+        out[k, 0], out[k, 1] = reference(t[k], w0, w_step, t_step, t_rise, a_sin, omega)
 
 
 def dc_motor_speed_controller(observer: str | None = None, k: float = 5.0, w0: float = 0.0,
@@ -101,6 +98,7 @@ def dc_motor_speed_controller(observer: str | None = None, k: float = 5.0, w0: f
                        ("omega_sin", omega_sin), ("a", a)):
         if not math.isfinite(value):
             raise ValueError(f"controller.{key} must be finite, got {value}")
-    p = np.array([a, b, k, x3_min, u_max, w0, w_step, t_step, T_rise, a_sin, omega_sin], float)
+    p = Params(a=a, b=b, k=k, x3_min=x3_min, u_max=u_max, w0=w0, w_step=w_step,
+               t_step=t_step, T_rise=T_rise, a_sin=a_sin, omega_sin=omega_sin)
     return Controller(name=name, p=p, u=u, observer=observer, reads_outputs=[1],
                       reads_estimate=[1])  # x3 = y[1], x^2 = xhat[1]

@@ -17,17 +17,16 @@ with a = 0 and a > 0 see the same sigma = x2. Profiles (``kind``):
 * ``pulse_return``: ``pulse``, then back to 0 by a ramp on [t_back, t_back + tau);
 * ``sin``: r = amp sin(omega t).
 
-Parameters p = [kind, a, t_on, tau, level, amp, omega, t_back, smooth (0/1)].
+Parameters (by name): constants kind (``KINDS``) and smooth (``RAMPS``); values a, t_on,
+tau, level, amp, omega, t_back.
 """
 
 from __future__ import annotations
 
 import math
 
-import numpy as np
-
-from hgo.components import Controller
-from hgo.engine.jit import kernel_helper
+from hgo.core.components import Controller, Params
+from hgo.engine.jit import kernel_helper, record_helper
 
 KINDS = {"bad": 0, "pulse": 1, "pulse_return": 2, "sin": 3}
 RAMPS = {"linear": 0, "smooth": 1}
@@ -48,24 +47,16 @@ def _ramp(t, t0, tau, level, smooth):
     return level, 0.0
 
 
-@kernel_helper
+@record_helper
 def profile(t, p):
-    """(r(t), r'(t)) of the profile in p (layout in the module docstring)."""
-    kind = int(p[0])
-    t_on = p[2]
-    tau = p[3]
-    level = p[4]
-    amp = p[5]
-    omega = p[6]
-    t_back = p[7]
-    smooth = int(p[8])
-    if kind == 3:
-        return amp * math.sin(omega * t), amp * omega * math.cos(omega * t)
-    if kind == 0:
+    """(r(t), r'(t)) of the profile of the controller's parameters p (module doc)."""
+    if p.kind == 3:
+        return p.amp * math.sin(p.omega * t), p.amp * p.omega * math.cos(p.omega * t)
+    if p.kind == 0:
         return 0.0, 0.0
-    r, dr = _ramp(t, t_on, tau, level, smooth)
-    if kind == 2:
-        r2, dr2 = _ramp(t, t_back, tau, level, smooth)
+    r, dr = _ramp(t, p.t_on, p.tau, p.level, p.smooth)
+    if p.kind == 2:
+        r2, dr2 = _ramp(t, p.t_back, p.tau, p.level, p.smooth)
         return r - r2, dr - dr2
     return r, dr
 
@@ -73,7 +64,7 @@ def profile(t, p):
 def u(t, xhat, y, p, u_out):
     """u = r' + a r."""
     r, dr = profile(t, p)
-    u_out[0] = dr + p[1] * r
+    u_out[0] = dr + p.a * r
 
 
 def profile_input(kind: str = "pulse", a: float = 0.0, t_on: float = 5.0, tau: float = 0.5,
@@ -93,21 +84,23 @@ def profile_input(kind: str = "pulse", a: float = 0.0, t_on: float = 5.0, tau: f
         raise ValueError(f"controller.tau must be > 0 (seconds), got {tau}")
     if kind == "pulse_return" and not t_back >= t_on + tau:
         raise ValueError(f"controller.t_back must be >= t_on + tau = {t_on + tau}, got {t_back}")
-    p = np.array([KINDS[kind], a, t_on, tau, level, amp, omega, t_back, RAMPS[ramp]], float)
+    p = Params({"kind": KINDS[kind], "smooth": RAMPS[ramp]}, a=a, t_on=t_on, tau=tau,
+               level=level, amp=amp, omega=omega, t_back=t_back)
     return Controller(name=name, p=p, u=u, observer=None)
 
 
 def breakpoints(c: Controller, t_end: float) -> list[float]:
     """Instants in (0, t_end) where u or its slope has a corner (a reference integrator
     restarts there)."""
-    kind, _, t_on, tau, _, _, _, t_back, _ = c.p
+    p = c.p
+    t_on, tau, t_back = p.t_on, p.tau, p.t_back
     pts = {0: [], 1: [t_on, t_on + tau], 2: [t_on, t_on + tau, t_back, t_back + tau],
-           3: []}[int(kind)]
+           3: []}[p.kind]
     return [t for t in pts if 0 < t < t_end]
 
 
 def input_period(c: Controller | None) -> float | None:
     """The period 2 pi / omega of a ``sin`` profile input; None for any other input."""
-    if c is None or c.u is not u or int(c.p[0]) != KINDS["sin"] or c.p[6] == 0:
+    if c is None or c.u is not u or c.p.kind != KINDS["sin"] or c.p.omega == 0:
         return None
-    return 2 * math.pi / abs(float(c.p[6]))
+    return 2 * math.pi / abs(c.p.omega)

@@ -10,7 +10,7 @@ dopri5/dop853 rejects until the step is short enough; the switch is resolved to 
 tolerance (checked by a refinement test). Where the switches are multiples of the noise
 sample period, steps are cut there too.
 
-Parameters p = [n_switches, times (n), values (n + 1)].
+Parameters (by name): constant n (switches), values times (n) and values (n + 1).
 """
 
 from __future__ import annotations
@@ -18,18 +18,15 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-import numpy as np
-
-from hgo.components import Controller
+from hgo.core.components import Controller, Params
 
 
 def u(t, xhat, y, p, u_out):
     """u(t) from the schedule (right-continuous)."""
-    n = int(p[0])
     k = 0
-    while k < n and t >= p[1 + k]:
+    while k < p.n and t >= p.times[k]:
         k += 1
-    val = p[1 + n + k]
+    val = p.values[k]
     for i in range(u_out.shape[0]):
         u_out[i] = val
 
@@ -46,5 +43,5 @@ def schedule_input(times: Sequence[float], values: Sequence[float],
         raise ValueError("controller.times and controller.values must be finite")
     if any(b <= a for a, b in zip(times, times[1:], strict=False)) or any(v <= 0 for v in times):
         raise ValueError(f"controller.times must be > 0 and strictly increasing, got {times}")
-    p = np.array([len(times), *times, *values], float)
+    p = Params({"n": len(times)}, times=times, values=values)
     return Controller(name=name, p=p, u=u, observer=None)

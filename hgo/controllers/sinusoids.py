@@ -3,7 +3,7 @@
 Dimassi et al. Sec. IV: u(t) = 5 (sin 2t + cos 3t), i.e. omega = (2, 3), a = (5, 0),
 b = (0, 5). No feedback: the observers only estimate.
 
-Parameters p = [K, omega_1..omega_K, a_1..a_K, b_1..b_K].
+Parameters (by name): constant K (the number of sinusoids), values omega, a, b (K each).
 """
 
 from __future__ import annotations
@@ -13,26 +13,26 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from hgo.components import Controller
+from hgo.core.components import Controller, Params
 
 
 def u(t, xhat, y, p, u_out):
     """u(t) on every input channel."""
-    k = int(p[0])
     val = 0.0
-    for i in range(k):
-        w = p[1 + i]
-        val += p[1 + k + i] * math.sin(w * t) + p[1 + 2 * k + i] * math.cos(w * t)
+    for i in range(p.K):  # (a term with a zero coefficient costs no sine or cosine)
+        w = p.omega[i]
+        if p.a[i] != 0.0:
+            val += p.a[i] * math.sin(w * t)
+        if p.b[i] != 0.0:
+            val += p.b[i] * math.cos(w * t)
     for j in range(u_out.shape[0]):
         u_out[j] = val
 
 
-def input_values(p: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """u(t) on an array of times (for bounds such as max_t |u|)."""
-    k = int(p[0])
-    w, a, b = p[1:1 + k], p[1 + k:1 + 2 * k], p[1 + 2 * k:1 + 3 * k]
+def input_values(p, t: np.ndarray) -> np.ndarray:
+    """u(t) on an array of times (for bounds such as max_t |u|); ``p``: the controller's."""
     t = np.asarray(t, float)[:, None]
-    return (a * np.sin(w * t) + b * np.cos(w * t)).sum(axis=1)
+    return (p.a * np.sin(p.omega * t) + p.b * np.cos(p.omega * t)).sum(axis=1)
 
 
 def sinusoids_controller(omega: Sequence[float] = (2.0, 3.0), a: Sequence[float] = (5.0, 0.0),
@@ -45,5 +45,5 @@ def sinusoids_controller(omega: Sequence[float] = (2.0, 3.0), a: Sequence[float]
                              f"got {len(vals)}")
         if not all(math.isfinite(v) for v in vals):
             raise ValueError(f"controller.{key} must be finite, got {list(vals)}")
-    p = np.concatenate([[k], omega, a, b]).astype(float)
+    p = Params({"K": k}, omega=omega, a=a, b=b)
     return Controller(name=name, p=p, u=u, observer=None)

@@ -26,7 +26,7 @@ import warnings
 from pathlib import Path
 from types import ModuleType
 
-from hgo.components import no_update
+from hgo.core.components import no_update
 from hgo.engine import tableau
 from hgo.engine.jit import borrow_function, view2_function, view_function
 from hgo.engine.system import System
@@ -116,7 +116,7 @@ def _literal(value: object) -> str:
 
 
 def _records(system: System, names: dict) -> tuple[list[str], list[str]]:
-    """The record of each component with named parameters (:class:`hgo.components.Params`):
+    """The record of each component with named parameters (:class:`hgo.core.components.Params`):
     its class and an inlined builder reading the flat vector P at constant offsets, with
     the constants as literals; and, per component, the argument its functions get (the
     builder's call, or the positional view ``P[a:b]``)."""
@@ -449,7 +449,8 @@ def load_kernel(system: System, compiled: bool = True, method: str = "dopri5") -
     module = importlib.util.module_from_spec(spec)
     module.__dict__.update(_decorators(compiled))
     component = module.__dict__["component_jit"]
-    module.__dict__.update({k: component(fn) for k, fn in functions.items()})
+    module.__dict__.update({k: fn if _compiled_helper(fn) and compiled else component(fn)
+                            for k, fn in functions.items()})
     sys.modules[name] = module
     spec.loader.exec_module(module)
     _LOADED[key] = module
@@ -457,6 +458,12 @@ def load_kernel(system: System, compiled: bool = True, method: str = "dopri5") -
 
 
 _LOADED: dict[tuple, ModuleType] = {}
+
+
+def _compiled_helper(fn: object) -> bool:
+    """A ``kernel_helper`` (already a numba function, e.g. among a component's constants):
+    injected as it is, not compiled again as a component."""
+    return getattr(fn, "py_func", fn) is not fn
 
 
 def _layout_key(system: System, method: str, compiled: bool) -> tuple:

@@ -1,6 +1,7 @@
 """Compilation helpers shared by components and generated kernels.
 
-``kernel_helper``: compile a helper that component functions call. Component functions
+``kernel_helper``: compile a helper that component functions call (``record_helper``: one
+that takes their parameter record). Component functions
 (``f``, ``h``, ``update``, ...) are compiled by the engine; a helper they call must be
 compiled on its own, in its module, so numba can type the call. A compiled helper is
 still callable from plain Python (the pure-Python fallback).
@@ -22,10 +23,23 @@ from contextlib import contextmanager
 
 import numba
 from numba.core import types
-from numba.extending import intrinsic
+from numba.extending import intrinsic, register_jitable
 from numba.np import arrayobj
 
 kernel_helper = numba.njit(cache=True, error_model="numpy")
+
+
+def record_helper(fn):
+    """A helper that component functions call with their parameter record (``p``).
+
+    In a kernel it is compiled into the calling component (a numba overload: nothing is
+    cached apart from the kernel, so no cache entry names a record type); from plain
+    Python it is the function itself, reading the same names from ``component.p`` (a
+    :class:`hgo.core.components.ParamVector`). ``fn.py_func`` is ``fn`` (as for a compiled
+    helper), which also puts its file into the kernel's cache key."""
+    register_jitable(error_model="numpy")(fn)
+    fn.py_func = fn
+    return fn
 
 
 @intrinsic

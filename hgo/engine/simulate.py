@@ -33,6 +33,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from hgo.core.errors import ConfigError
 from hgo.engine.codegen import (
     damaged_cache_file,
     forget_kernel,
@@ -41,7 +42,6 @@ from hgo.engine.codegen import (
     remove_cache_entry,
 )
 from hgo.engine.system import System
-from hgo.errors import ConfigError
 
 RK4_STABILITY = 2.785  # |h*lambda| limit of classical RK4 on the negative real axis
 METHODS = {"rk4": 0, "dopri5": 1, "dop853": 2}
@@ -416,7 +416,7 @@ def simulate_ensemble(system: System, solver: SolverSettings, noise: list[Noise]
     """Integrate many runs in parallel (numba ``prange``) in one compiled call.
 
     ``params`` (M, n_p), ``z0`` (M, n_z) and ``d0`` (M, n_d; default: ``system.d0()`` for
-    all) give one row per member (:func:`hgo.ensemble.stack_members` builds all three);
+    all) give one row per member (:func:`hgo.running.ensemble.stack_members` builds all three);
     ``noise`` is one :class:`Noise` per member (same ``dt``) or one shared by all.
     ``system`` gives the kernel. ``rho`` (M,): each member's constant spectral radius that
     caps its RK4 steps (:func:`rho_const` of the member's own system, so a member takes

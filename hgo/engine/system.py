@@ -13,8 +13,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from hgo.components import Controller, Observer, Plant
-from hgo.errors import ConfigError
+from hgo.core.components import Controller, Observer, Plant
+from hgo.core.errors import ConfigError
 
 
 def _check_indices(key: str, what: str, indices, n: int, names: list[str]) -> None:

@@ -26,9 +26,13 @@ notes ``shared/specs/dhlm.md``):
   saturation. A plant with fewer outputs (or fewer inputs than E has columns) makes the
   run stop at t = 0 with "non-finite state" (:func:`_miswired`).
 
-phi and psi are known functions of the class; they are compiled, chosen by ``model``
-(:data:`MODELS`): ``robot_arm`` is Dimassi et al. (25) with phi = 0 and psi = [u, -sin x1]
-(regressor order A1, so theta = (1/I, m g l/(2 I))).
+phi and psi are known functions of the class, the user's: ``phi(x, u, out)`` writes
+phi(x, u) (m entries) and ``psi(x, u, out)`` writes psi(x, u) (m x q); any function numba
+can compile (or plain Python, on the slower path), given in Python or as a ``_target_``
+(``{_target_: module.function, _partial_: true}``), with their Lipschitz constants K_phi,
+K_psi (theory rows). ``model`` names an instance (:data:`MODELS`): ``robot_arm`` is
+Dimassi et al. (25) with phi = 0 and psi = [u, -sin x1] (regressor order A1, so
+theta = (1/I, m g l/(2 I)); :func:`hgo.plants.robot_arm.dimassi_psi`).
 
 Continuous state z = [z_h (N) | x^ (n) | th^ (q) | w^ (1)]. Discrete state d
 (``disc_names``) = [t_sat_first, t_sat_last]: the first and last integration step end at
@@ -36,10 +40,12 @@ which the saturation was active (-1: never); the adaptive step is short while it
 HGO peaking), so no output grid is involved. (d changes only then: the integrator's
 first-same-as-last evaluation is kept on every other step.)
 
-Parameters p: a header (``HEAD``) then the row-major arrays A (n x n), B (n x m),
-E (n x r), H (N x n), L (n x N), M (m x N), C (p x n), C^+ (n x p), Bz2 (N x r: b_i2 rows),
-Gamma (N), S (N), out (N: output of the block), first (N: index of the block's z_hi1),
-last (N: 1 for the block's last entry), direct (N: 1 when q_i = 1). Offsets: :func:`_layout`.
+Parameters (by name): constants n, N (entries of z), m, q, r (inputs), n_y (outputs), the
+flags psi_at_y, omega_law, ideal, the functions phi (or None: phi = 0) and psi, and per
+entry k of z: out (its output), first (the index of its block's z_hi1), last (its block's
+last entry), direct (q_i = 1); values eps, delta, sigma, sigma2, K_phi, K_psi, A (n x n),
+B (n x m), E (n x r), H (N x n), L (n x N), M (m x N), C (n_y x n), Cp (n x n_y: C^+),
+Bz2 (N x r: b_i2 rows), Gamma (N), S (N).
 """
 
 from __future__ import annotations
@@ -49,95 +55,65 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from hgo.components import Observer
-from hgo.engine.jit import kernel_helper
+from hgo.core.components import Observer, Params, user_function
+from hgo.engine.jit import record_helper
+from hgo.plants.robot_arm import dimassi_psi
 
-HEAD = ["n", "N", "m", "q", "r", "p", "eps", "delta", "sigma", "sigma2", "psi_at",
-        "omega_law", "ideal", "model"]
-_NH = len(HEAD)
-#: model name -> (id, m, q, K_phi, K_psi): the compiled phi, psi of :func:`regressor`.
-MODELS = {"robot_arm": (0, 1, 2, 0.0, 1.0)}
+
+def zero_phi(x, u, out):
+    """phi = 0 (not called: the flag has_phi is False; it only gives the record a type)."""
+    for j in range(out.shape[0]):
+        out[j] = 0.0
+
+
+#: model name -> (phi, psi, m, q, K_phi, K_psi): the instances of the class (1).
+MODELS = {"robot_arm": (None, dimassi_psi, 1, 2, 0.0, 1.0)}
 PSI_AT = {"y": 0, "xhat": 1}
 HGO_MODES = ("observer", "ideal")
 
 
-@kernel_helper
-def _layout(p):
-    """Offsets of A, B, E, H, L, M, C, Cp, Bz2, Gamma, S, out, first, last, direct."""
-    n, nn, m, r, po = int(p[0]), int(p[1]), int(p[2]), int(p[4]), int(p[5])
-    o_a = _NH
-    o_b = o_a + n * n
-    o_e = o_b + n * m
-    o_h = o_e + n * r
-    o_l = o_h + nn * n
-    o_m = o_l + n * nn
-    o_c = o_m + m * nn
-    o_cp = o_c + po * n
-    o_bz = o_cp + n * po
-    o_g = o_bz + nn * r
-    o_s = o_g + nn
-    return (o_a, o_b, o_e, o_h, o_l, o_m, o_c, o_cp, o_bz, o_g, o_s, o_s + nn, o_s + 2 * nn,
-            o_s + 3 * nn, o_s + 4 * nn)
-
-
-@kernel_helper
-def _arg_state(i, xh, y, p, o_c, o_cp):
-    """Entry i of the point where phi, psi are evaluated: x^ (psi_at = xhat) or
-    x^ + C^+ (y - C x^) (psi_at = y)."""
-    if p[10] > 0.5:
-        return xh[i]
-    n, po = int(p[0]), int(p[5])
-    v = xh[i]
-    for o in range(po):
-        cx = 0.0
-        for j in range(n):
-            cx += p[o_c + o * n + j] * xh[j]
-        v += p[o_cp + i * po + o] * (y[o] - cx)
-    return v
-
-
-@kernel_helper
-def regressor(j, k, xh, y, u, p, o_c, o_cp):
-    """psi_jk(x^a, u) of the model p[13] (robot_arm: psi = [u, -sin x1], one row)."""
-    if k == 0:
-        return u[0]
-    return -math.sin(_arg_state(0, xh, y, p, o_c, o_cp))
-
-
-@kernel_helper
-def nonlinearity(j, xh, y, u, p, o_c, o_cp):
-    """phi_j(x^a, u) of the model p[13] (robot_arm: phi = 0)."""
-    return 0.0
-
-
-@kernel_helper
-def passed_on(k, zh, y, p, o_s, o_out, o_dir):
+@record_helper
+def passed_on(k, zh, y, p):
     """Entry k of z_h^s: the saturated HGO output, y_i for q_i = 1, or H x (ideal)."""
-    if p[12] > 0.5:
+    if p.ideal:
         return y[k]
-    if p[o_dir + k] > 0.5:
-        return y[int(p[o_out + k])]
-    s = p[o_s + k]
+    if p.direct[k]:
+        return y[p.out[k]]
+    s = p.S[k]
     return min(max(zh[k], -s), s)
 
 
-@kernel_helper
-def innovation(k, zh, xh, y, p, o_h, o_s, o_out, o_dir):
+@record_helper
+def innovation(k, zh, xh, y, p):
     """Entry k of z_h^s - H x^."""
-    n = int(p[0])
-    v = passed_on(k, zh, y, p, o_s, o_out, o_dir)
-    for j in range(n):
-        v -= p[o_h + k * n + j] * xh[j]
+    v = passed_on(k, zh, y, p)
+    for j in range(p.n):
+        v -= p.H[k, j] * xh[j]
     return v
 
 
-@kernel_helper
+@record_helper
 def _miswired(y, u, p):
-    """The plant gives fewer outputs (p, or N for ``hgo=ideal``) or inputs (r) than the
+    """The plant gives fewer outputs (n_y, or N for ``hgo=ideal``) or inputs (r) than the
     observer reads: ``update`` then makes the state non-finite (the run stops at t = 0
     with "non-finite state") and ``f`` returns zeros, instead of reading past y or u."""
-    need_y = int(p[1]) if p[12] > 0.5 else int(p[5])
-    return y.shape[0] < need_y or u.shape[0] < max(int(p[4]), 1)
+    need_y = p.N if p.ideal else p.n_y
+    return y.shape[0] < need_y or u.shape[0] < max(p.r, 1)
+
+
+@record_helper
+def _argument(xh, y, p, xa):
+    """The point where phi, psi are evaluated, into xa: x^ + C^+ (y - C x^) (psi_at_y), i.e.
+    x^ with its measured coordinates replaced by y, or x^."""
+    for i in range(p.n):
+        v = xh[i]
+        if p.psi_at_y:
+            for o in range(p.n_y):
+                cx = 0.0
+                for j in range(p.n):
+                    cx += p.C[o, j] * xh[j]
+                v += p.Cp[i, o] * (y[o] - cx)
+        xa[i] = v
 
 
 def f(t, z, d, y, u, p, dz):
@@ -146,54 +122,59 @@ def f(t, z, d, y, u, p, dz):
         for i in range(dz.shape[0]):
             dz[i] = 0.0
         return
-    n, nn, m, q, r = int(p[0]), int(p[1]), int(p[2]), int(p[3]), int(p[4])
-    delta, sigma, sigma2, omega_on, ideal = p[7], p[8], p[9], p[11], p[12]
-    (o_a, o_b, o_e, o_h, o_l, o_m, o_c, o_cp, o_bz, o_g, o_s, o_out, o_first, o_last,
-     o_dir) = _layout(p)
+    nn, n, m, q = p.N, p.n, p.m, p.q
     zh = z[:nn]
     xh = z[nn:nn + n]
     th = z[nn + n:nn + n + q]
     w_hat = z[nn + n + q]
     for k in range(nn):  # (6): chain of integrators + output injection + b_i2 u
-        if ideal > 0.5 or p[o_dir + k] > 0.5:
+        if p.ideal or p.direct[k]:
             dz[k] = 0.0
             continue
-        e = y[int(p[o_out + k])] - zh[int(p[o_first + k])]
-        v = p[o_g + k] * e
-        if p[o_last + k] < 0.5:
+        e = y[p.out[k]] - zh[p.first[k]]
+        v = p.Gamma[k] * e
+        if not p.last[k]:
             v += zh[k + 1]
-        for j in range(r):
-            v += p[o_bz + k * r + j] * u[j]
+        for j in range(p.r):
+            v += p.Bz2[k, j] * u[j]
         dz[k] = v
     for i in range(n):  # (5): A x^ + E u, then + L (z_h^s - H x^)
         v = 0.0
         for j in range(n):
-            v += p[o_a + i * n + j] * xh[j]
-        for j in range(r):
-            v += p[o_e + i * r + j] * u[j]
+            v += p.A[i, j] * xh[j]
+        for j in range(p.r):
+            v += p.E[i, j] * u[j]
         dz[nn + i] = v
     for k in range(nn):
-        inn = innovation(k, zh, xh, y, p, o_h, o_s, o_out, o_dir)
+        inn = innovation(k, zh, xh, y, p)
         for i in range(n):
-            dz[nn + i] += p[o_l + i * nn + k] * inn
+            dz[nn + i] += p.L[i, k] * inn
     for k in range(q):  # (7): th^' = delta psi^T M (z_h^s - H x^) - sigma th^
-        dz[nn + n + k] = -sigma * th[k]
+        dz[nn + n + k] = -p.sigma * th[k]
+    # phi(x^a, u) and psi(x^a, u), evaluated once: [x^a (n) | phi (m) | psi (m x q)]
+    work = np.empty(n + m + m * q)
+    xa = work[:n]
+    _argument(xh, y, p, xa)
+    phi = work[n:n + m]
+    if p.has_phi:
+        p.phi(xa, u, phi)
+    psi = work[n + m:].reshape((m, q))
+    p.psi(xa, u, psi)
     mi_sq = 0.0
     for j in range(m):  # row j of M (z_h^s - H x^) and of psi: (5) + B g, (7), (11)
         mi = 0.0
         for k in range(nn):
-            mi += p[o_m + j * nn + k] * innovation(k, zh, xh, y, p, o_h, o_s, o_out, o_dir)
+            mi += p.M[j, k] * innovation(k, zh, xh, y, p)
         mi_sq += mi * mi
-        g = nonlinearity(j, xh, y, u, p, o_c, o_cp)
-        if omega_on > 0.5:
+        g = phi[j] if p.has_phi else 0.0
+        if p.omega_law:
             g += w_hat * mi  # (11), reconstructed injection w^ B M (z_h^s - H x^)
         for k in range(q):
-            psi = regressor(j, k, xh, y, u, p, o_c, o_cp)
-            g += psi * th[k]
-            dz[nn + n + k] += delta * psi * mi
+            g += psi[j, k] * th[k]
+            dz[nn + n + k] += p.delta * psi[j, k] * mi
         for i in range(n):
-            dz[nn + i] += p[o_b + i * m + j] * g
-    dz[nn + n + q] = mi_sq - sigma2 * w_hat if omega_on > 0.5 else 0.0
+            dz[nn + i] += p.B[i, j] * g
+    dz[nn + n + q] = mi_sq - p.sigma2 * w_hat if p.omega_law else 0.0
 
 
 def update(t, z, d, y, u, p):
@@ -201,13 +182,10 @@ def update(t, z, d, y, u, p):
     if _miswired(y, u, p):
         z[0] = math.nan
         return
-    if p[12] > 0.5:
+    if p.ideal:
         return
-    nn = int(p[1])
-    offsets = _layout(p)
-    o_s, o_dir = offsets[10], offsets[14]
-    for k in range(nn):
-        if p[o_dir + k] < 0.5 and abs(z[k]) > p[o_s + k]:  # (q_i = 1: no HGO)
+    for k in range(p.N):
+        if not p.direct[k] and abs(z[k]) > p.S[k]:  # (q_i = 1: no HGO)
             if d[0] < 0.0:
                 d[0] = t
             d[1] = t
@@ -216,9 +194,8 @@ def update(t, z, d, y, u, p):
 
 def estimate(t, z, d, p, xhat):
     """x^ of (5)."""
-    nn, n = int(p[1]), int(p[0])
-    for i in range(n):
-        xhat[i] = z[nn + i]
+    for i in range(p.n):
+        xhat[i] = z[p.N + i]
 
 
 # --- construction --------------------------------------------------------------------------
@@ -290,7 +267,7 @@ def _check(cond: bool, message: str) -> None:
 
 
 def adaptive_cascade(name: str, A: Sequence, B: Sequence, C: Sequence, E: Sequence | None = None,
-                     model: str = "robot_arm", q: Sequence[int] = (2,),
+                     model: str | None = "robot_arm", q: Sequence[int] = (2,),
                      gamma: Sequence[Sequence[float]] = ((6.0, 8.0),), eps: float = 0.006,
                      S: Sequence[float] = (150.0, 150.0), L: Sequence = ((5.0, 0.0), (1.0, 10.0)),
                      M: Sequence = ((0.0, 1.0),), delta: float = 100.0, sigma: float = 0.01,
@@ -298,7 +275,8 @@ def adaptive_cascade(name: str, A: Sequence, B: Sequence, C: Sequence, E: Sequen
                      hgo: str = "observer", zh0: Sequence[float] | None = None,
                      xhat0: Sequence[float] | None = None,
                      theta_hat0: Sequence[float] | None = None,
-                     omega_hat0: float = 0.0) -> Observer:
+                     omega_hat0: float = 0.0, phi=None, psi=None, n_theta: int | None = None,
+                     K_phi: float = 0.0, K_psi: float | None = None) -> Observer:
     """The cascade (6) -> (5), (7) [, (11)] for the class (1); defaults: Dimassi et al. Sec. IV.
 
     ``A`` (n x n), ``B`` (n x m), ``C`` (p x n), ``E`` (n x r, default zeros with r = 1),
@@ -306,11 +284,13 @@ def adaptive_cascade(name: str, A: Sequence, B: Sequence, C: Sequence, E: Sequen
     block i (s^qi + g_i1 s^(qi-1) + ... + g_iqi must be Hurwitz); ``eps`` in (0, 1);
     ``S``: one saturation level per entry of z (inf: none); ``L`` (n x N), ``M`` (m x N);
     ``delta`` > 0, ``sigma`` >= 0; see the module docstring for the rest. Initial states
-    default to zero (the paper's choice).
+    default to zero (the paper's choice). ``model`` names an instance of :data:`MODELS`;
+    ``model=None`` takes the user's ``psi`` (and ``phi``, default 0) with ``n_theta``
+    unknown parameters, m = the columns of B, and their Lipschitz constants ``K_phi``,
+    ``K_psi`` (module doc).
     """
     key = f"observer.{name}"
-    _check(model in MODELS, f"{key}.model must be one of {sorted(MODELS)}, got '{model}'")
-    model_id, m, nq, _, _ = MODELS[model]
+    phi, psi, m, nq, K_phi, K_psi = _model(key, model, B, phi, psi, n_theta, K_phi, K_psi)
     A = np.asarray(A, float)
     _check(A.ndim == 2 and A.shape[0] == A.shape[1], f"{key}.A must be square, got {A.shape}")
     n = A.shape[0]
@@ -361,11 +341,15 @@ def adaptive_cascade(name: str, A: Sequence, B: Sequence, C: Sequence, E: Sequen
                f"{key}.{k} must be {size} finite numbers, got {np.asarray(value).tolist()}")
         init[k] = v
     _check(math.isfinite(omega_hat0), f"{key}.omega_hat0 must be finite, got {omega_hat0}")
-    head = [n, nn, m, nq, r, po, eps, delta, sigma, sigma2, PSI_AT[psi_at], float(omega_law),
-            float(hgo == "ideal"), model_id]
-    p = np.concatenate([head, A.ravel(), B.ravel(), E.ravel(), H.ravel(), L.ravel(), M.ravel(),
-                        C.ravel(), np.linalg.pinv(C).ravel(), np.asarray(bz2).ravel(), gains, S,
-                        out, first, last, direct]).astype(float)
+    p = Params({"n": n, "N": nn, "m": m, "q": nq, "r": r, "n_y": po,
+                "psi_at_y": psi_at == "y", "omega_law": bool(omega_law),
+                "ideal": hgo == "ideal", "has_phi": phi is not None,
+                "phi": zero_phi if phi is None else phi, "psi": psi,
+                "out": out, "first": first, "last": [bool(v) for v in last],
+                "direct": [bool(v) for v in direct]},
+               eps=eps, delta=delta, sigma=sigma, sigma2=sigma2, K_phi=K_phi, K_psi=K_psi,
+               A=A, B=B, E=E, H=H, L=L, M=M, C=C, Cp=np.linalg.pinv(C),
+               Bz2=np.asarray(bz2).reshape(nn, r), Gamma=gains, S=S)
     z0 = np.concatenate([init["zh0"], init["xhat0"], init["theta_hat0"], [omega_hat0]])
     # stiffest linear parts: the HGO poles eig(a-bar_i)/eps and eig(A - L H)
     rho = max([float(np.max(np.abs(np.linalg.eigvals(hgo_matrix(g))))) / eps
@@ -382,14 +366,33 @@ def adaptive_cascade(name: str, A: Sequence, B: Sequence, C: Sequence, E: Sequen
         signals={"theta_hat": list(range(nn + n, nn + n + nq)), "omega_hat": [nn + n + nq]})
 
 
-def unpack(p: np.ndarray) -> dict[str, np.ndarray | float]:
-    """The named blocks of the parameter vector (for post-processing and theory)."""
-    n, nn, m, q, r, po = (int(v) for v in p[:6])
-    offs = _layout(np.asarray(p, float))
-    shapes = {"A": (n, n), "B": (n, m), "E": (n, r), "H": (nn, n), "L": (n, nn), "M": (m, nn),
-              "C": (po, n), "Cp": (n, po), "Bz2": (nn, r), "Gamma": (nn,), "S": (nn,),
-              "out": (nn,), "first": (nn,), "last": (nn,), "direct": (nn,)}
-    blocks = {k: np.asarray(p[o:o + int(np.prod(s))]).reshape(s)
-              for (k, s), o in zip(shapes.items(), offs, strict=True)}
-    blocks.update({h: float(v) for h, v in zip(HEAD, p[:_NH], strict=True)})
+def _model(key: str, model: str | None, B, phi, psi, n_theta, K_phi, K_psi) -> tuple:
+    """(phi or None, psi, m, q, K_phi, K_psi) of a named instance or of the user's."""
+    if model is not None:
+        _check(model in MODELS, f"{key}.model must be one of {sorted(MODELS)} or null (the "
+               f"user's phi, psi), got '{model}'")
+        _check(phi is None and psi is None, f"{key}: give model or phi/psi, not both")
+        return MODELS[model]
+    _check(psi is not None, f"{key}.psi is required when model is null (psi(x, u, out))")
+    _check(isinstance(n_theta, (int, np.integer)) and n_theta >= 1,
+           f"{key}.n_theta must be an integer >= 1 (the unknown parameters), got {n_theta}")
+    _check(K_psi is not None and math.isfinite(K_psi) and K_psi >= 0 and math.isfinite(K_phi)
+           and K_phi >= 0, f"{key}: K_phi and K_psi must be Lipschitz constants >= 0, got "
+           f"{K_phi}, {K_psi}")
+    m = np.atleast_2d(np.asarray(B, float)).shape[1]
+    return (None if phi is None else user_function(f"{key}.phi", phi),
+            user_function(f"{key}.psi", psi), m, int(n_theta), float(K_phi), float(K_psi))
+
+
+def unpack(p) -> dict[str, np.ndarray | float]:
+    """The named parameters of an observer's ``p`` as one dict (for post-processing and
+    theory): every value, the dimensions, the per-entry tuples as arrays, and the flags
+    psi_at (0: y, 1: x^), ideal and omega_law as 0/1."""
+    spec = p.spec
+    blocks = {name: spec.get(p, name) for name in spec.names}
+    blocks.update({k: spec.constants[k] for k in ("n", "N", "m", "q", "r", "n_y")})
+    blocks.update({k: np.asarray(spec.constants[k], float)
+                   for k in ("out", "first", "last", "direct")})
+    blocks.update(psi_at=0.0 if p.psi_at_y else 1.0, ideal=float(p.ideal),
+                  omega_law=float(p.omega_law))
     return blocks

@@ -2,11 +2,13 @@
 
     x^' = A x^ + L (y - C x^) + G psi(H x^ + N (y - C x^)) + B u,
 
-with (A, G, C, H, B, psi) taken from the plant (:mod:`hgo.plants.circle_form`), the gains
+with (A, G, C, H, B, psi) taken from the plant (:mod:`hgo.plants.circle_form`; psi is the
+plant's monotone nonlinearity: its polynomial, or the user's function psi(s, c)), the gains
 L (n) and N (scalar; for the example of Section 5, N = k). Error e = x - x^ obeys
 Moreno (5): e' = A_L e + G phi(z, sigma), z = H_N e, A_L = A - L C, H_N = H - N C.
 
-Parameters p = [plant p (see :mod:`hgo.plants.circle_form`), L (n), N]; state z = x^.
+Parameters (by name): the plant's (constants n, psi; values A, G, C, H, B, psi_c), then the
+gains L (n) and N; state z = x^.
 
 Integrate with an adaptive method (``dopri5``/``dop853``): the declared
 ``spectral_radius`` is that of A_L only, while psi adds a state-dependent stiffness
@@ -21,33 +23,23 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from hgo.components import Observer
-from hgo.plants.circle_form import CircleFormPlant, poly
+from hgo.core.components import Observer, Params
+from hgo.plants.circle_form import CircleFormPlant
 
 
 def f(t, z, d, y, u, p, dz):
-    """Moreno (3) (p layout in the module docstring)."""
-    n = z.shape[0]
-    A = p[0:n * n]
-    G = p[n * n:n * n + n]
-    C = p[n * n + n:n * n + 2 * n]
-    H = p[n * n + 2 * n:n * n + 3 * n]
-    B = p[n * n + 3 * n:n * n + 4 * n]
-    n_c = int(p[n * n + 4 * n])
-    coeffs = p[n * n + 4 * n + 1:n * n + 4 * n + 1 + n_c]
-    L = p[n * n + 4 * n + 1 + n_c:n * n + 5 * n + 1 + n_c]
-    N = p[n * n + 5 * n + 1 + n_c]
+    """Moreno (3): x^' = A x^ + L (y - C x^) + G psi(H x^ + N (y - C x^)) + B u."""
     y_hat = 0.0
     sigma_hat = 0.0
-    for j in range(n):
-        y_hat += C[j] * z[j]
-        sigma_hat += H[j] * z[j]
+    for j in range(p.n):
+        y_hat += p.C[j] * z[j]
+        sigma_hat += p.H[j] * z[j]
     innov = y[0] - y_hat
-    psi = poly(coeffs, sigma_hat + N * innov)
-    for i in range(n):
-        acc = L[i] * innov + G[i] * psi + B[i] * u[0]
-        for j in range(n):
-            acc += A[i * n + j] * z[j]
+    psi = p.psi(sigma_hat + p.N * innov, p.psi_c)
+    for i in range(p.n):
+        acc = p.L[i] * innov + p.G[i] * psi + p.B[i] * u[0]
+        for j in range(p.n):
+            acc += p.A[i, j] * z[j]
         dz[i] = acc
 
 
@@ -96,6 +88,13 @@ def circle_criterion_observer(name: str, plant: CircleFormPlant, L: Sequence[flo
     return CircleCriterionObserver(
         name=name, state_names=[f"xhat{i + 1}" for i in range(n)], disc_names=[],
         estimated_states=list(range(n)), z0=z0, d0=np.zeros(0),
-        p=np.concatenate([plant.p, L, [N]]), f=f, estimate=estimate,
+        p=_params(plant, L, N), f=f, estimate=estimate,
         spectral_radius=float(np.max(np.abs(np.linalg.eigvals(A_L)))),
         plant=plant, L=L, N=float(N))
+
+
+def _params(plant: CircleFormPlant, L: np.ndarray, N: float) -> Params:
+    """The plant's parameters (the model of (3)) and the gains L, N, by name."""
+    pp = plant.p
+    return Params({"n": pp.n, "psi": pp.psi}, A=pp.A, G=pp.G, C=pp.C, H=pp.H, B=pp.B,
+                  psi_c=pp.psi_c, L=L, N=N)

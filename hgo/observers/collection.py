@@ -35,8 +35,9 @@ injection vanishes when all y^_i are equal). Either an explicit list ``xhat0_cop
 (N rows of n) or the rule x^_i(0) = xhat0 + (i - 1) * spread, i = 1..N (default spread
 [1, 0]: x^_{i,1}(0) = 3, 4, 5 for xhat0 = [3, 3]). All copies start at r_i(0) = r0.
 
-State z = [x^_1 (n), r_1, x^_2 (n), r_2, ..., x^_N (n), r_N]; parameters
-p = [N, n, p1, p2, b, q, K~ (n), kappa (n), M (n*n, row-major), c (n)].
+State z = [x^_1 (n), r_1, x^_2 (n), r_2, ..., x^_N (n), r_N]; parameters (by name):
+constants N, n and high_gain (kbar scaling q = 1, else q = 0); values p1, p2, b, K (n: K~),
+kappa (n), M (n x n), c (n).
 """
 
 from __future__ import annotations
@@ -45,25 +46,15 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from hgo.components import Observer
-from hgo.errors import as_floats
+from hgo.core.components import Observer, Params
+from hgo.core.errors import as_floats
 
 SCALINGS = {"constant": 0.0, "high_gain": 1.0}
-HEAD = 6  # N, n, p1, p2, b, q
 
 
 def f(t, z, d, y, u, p, dz):
     """Sanfelice & Praly (21) for N copies of dimension n."""
-    N = int(p[0])
-    n = int(p[1])
-    p1 = p[2]
-    p2 = p[3]
-    b = p[4]
-    q = p[5]
-    K = p[HEAD:HEAD + n]
-    kappa = p[HEAD + n:HEAD + 2 * n]
-    M = p[HEAD + 2 * n:HEAD + 2 * n + n * n]
-    c = p[HEAD + 2 * n + n * n:HEAD + 3 * n + n * n]
+    N, n = p.N, p.n
     m = n + 1
     ysum = 0.0
     for i in range(N):
@@ -76,19 +67,18 @@ def f(t, z, d, y, u, p, dz):
         r_k = 1.0
         for k in range(n):
             r_k *= r
-            model = c[k]
+            model = p.c[k]
             for j in range(k + 1):
-                model += M[k * n + j] * z[o + j]
+                model += p.M[k, j] * z[o + j]
             chain = z[o + k + 1] if k < n - 1 else 0.0
-            kbar = kappa[k] * r_k if q > 0.5 else kappa[k]
-            dz[o + k] = chain + model - K[k] * r_k * e + kbar * spread
-        dz[o + n] = p1 * ((e * e - p2) * r ** (1.0 - 2.0 * b) + p2 / r ** (2 * n))
+            kbar = p.kappa[k] * r_k if p.high_gain else p.kappa[k]
+            dz[o + k] = chain + model - p.K[k] * r_k * e + kbar * spread
+        dz[o + n] = p.p1 * ((e * e - p.p2) * r ** (1.0 - 2.0 * p.b) + p.p2 / r ** (2 * n))
 
 
 def estimate(t, z, d, p, xhat):
     """<x^> = (1/N) sum_i x^_i."""
-    N = int(p[0])
-    n = int(p[1])
+    N, n = p.N, p.n
     for k in range(n):
         s = 0.0
         for i in range(N):
@@ -148,8 +138,8 @@ def sp_collection(name: str, N: int = 3, K: Sequence[float] = (2.0, 2.0),
     _check(p1 > 0, f"observer.{name}.p1 must be > 0, got {p1}")
     _check(p2 > 0, f"observer.{name}.p2 must be > 0, got {p2}")
     _check(0 < b < 0.5, f"observer.{name}.b must be in (0, 1/2), got {b}")
-    p = np.concatenate([[N, n, p1, p2, b, SCALINGS[kbar_scaling]], np.asarray(K, float),
-                        np.asarray(kappa, float), M.ravel(), c])
+    p = Params({"N": N, "n": n, "high_gain": SCALINGS[kbar_scaling] > 0.5}, p1=p1, p2=p2, b=b,
+               K=K, kappa=kappa, M=M, c=c)
     z0 = np.concatenate([np.append(row, r0) for row in x0])
     names, signals = [], {}
     for i in range(N):
@@ -164,13 +154,12 @@ def sp_collection(name: str, N: int = 3, K: Sequence[float] = (2.0, 2.0),
 
 def copy_states(obs: Observer, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Split the collection's state columns (T, N (n+1)) into x^ (T, N, n) and r (T, N)."""
-    N, n = int(obs.p[0]), int(obs.p[1])
+    N, n = obs.p.N, obs.p.n
     zz = z.reshape(z.shape[0], N, n + 1)
     return zz[:, :, :n], zz[:, :, n]
 
 
 def collection_params(obs: Observer) -> dict:
     """The copy count N and the law-(6) parameters shared by the copies: n, p1, p2, b, K~."""
-    N, n = int(obs.p[0]), int(obs.p[1])
-    return {"N": N, "n": n, "p1": float(obs.p[2]), "p2": float(obs.p[3]), "b": float(obs.p[4]),
-            "K": np.asarray(obs.p[HEAD:HEAD + n], float)}
+    p = obs.p
+    return {"N": p.N, "n": p.n, "p1": p.p1, "p2": p.p2, "b": p.b, "K": np.array(p.K)}

@@ -37,10 +37,19 @@ phi2 + (phi3/phi1) df2max of (8)). ``L0=None`` starts L at the equilibrium of (8
 phi2 + (phi3/phi1) Omega(u(0), y_s(0), x^2s(0)) with y(0) including the first noise
 sample (reading C6); it is set by the discrete update at t = 0.
 
+The model is the user's (issue 24): ``model(y, u, x1, x2, p) -> (y_s, f1, f2, Omega)``
+gives, at the observer's estimate (x1, x2), the output as the correction reads it (y_s),
+the drifts of x^1' = x^2 + f1 and x^2' = f2, and the bound Omega of (8);
+``to_state(x1, x2, p) -> (eta1, eta2)`` maps the estimate to the plant's coordinates. Both
+read their own parameters by name from the observer's ``p`` (``model_params`` of the
+factory). The Contois instance above is :func:`contois_model` / :func:`contois_state`
+(the default), with parameters hbar, eps1, eps2, df2max and the constant kind.
+
 State z = [x^1, x^2, L] (x^ unsaturated); discrete d = [L initialised (0/1)];
-parameters p = [q, b, phi1, phi2, phi3, ell, kind, dynamic, homogeneous, hbar, eps1,
-eps2, df2max, rho_lin] (q = d_inf; kind 0 df2max, 1 Omega1, 2 Omega2; rho_lin = the
-spectral radius of the linear error dynamics at L = 1).
+parameters (by name): constants model, to_state, dynamic, homogeneous (and the Contois
+model's kind: 0 df2max, 1 Omega1, 2 Omega2); values q (= d_inf), b, phi1, phi2, phi3, ell,
+rho_lin (the spectral radius of the linear error dynamics at L = 1), then the model's
+(Contois: hbar, eps1, eps2, df2max).
 """
 
 from __future__ import annotations
@@ -50,7 +59,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from hgo.components import Observer
+from hgo.core.components import Observer, Params, user_function
 from hgo.engine.jit import kernel_helper
 from hgo.plants.contois import (
     clip,
@@ -117,44 +126,55 @@ def omega_now(kind, u, ys, xh2, q, hbar, eps2, dfmax):
     return model_terms(kind, u, ys, xh2, q, hbar, eps2, dfmax)[1]
 
 
+def contois_model(y, u, x1, x2, p):
+    """The Contois model (12) of Section 3: y_s = clip(y, eps1, 1 - eps2) (C16), f1 = -u y
+    with the raw y (C15), f2 at (y_s, x^2s) with the model hbar_o (C17) and its bound
+    Omega (df2max, Omega1 or Omega2 by the constant p.kind)."""
+    ys = clip(y, p.eps1, 1.0 - p.eps2)
+    f2s, omega = model_terms(p.kind, u, ys, x2, p.q, p.hbar, p.eps2, p.df2max)
+    return ys, -u * y, f2s, omega
+
+
+def contois_state(x1, x2, p):
+    """eta^ = F^{-1} of the saturated x^ (bounds at the observer's own x^1s, reading C7)."""
+    x1s = clip(x1, p.eps1, 1.0 - p.eps2)
+    x2s = clip(x2, x2_low(x1s, p.eps2, p.hbar), x2_high(x1s, p.hbar))
+    return x1s, eta2_of_x(x1s, x2s, p.hbar)
+
+
 def f(t, z, d, y, u, p, dz):
-    """Andrieu, Praly & Astolfi (7)-(8) on the Contois form (12) (layout: module doc)."""
-    q, b, phi1, phi2, phi3, ell = p[0], p[1], p[2], p[3], p[4], p[5]
-    kind, dynamic, homogeneous = int(p[6]), p[7] > 0.5, p[8] > 0.5
-    hbar, eps1, eps2, dfmax = p[9], p[10], p[11], p[12]
+    """Andrieu, Praly & Astolfi (7)-(8) on the model p.model (module doc)."""
     L = z[2]
-    ys = clip(y[0], eps1, 1.0 - eps2)
-    Lb = math.sqrt(L) if b == 0.5 else math.pow(L, b)
-    correction((z[0] - ys) / Lb, L, Lb, q, ell, homogeneous, 2, dz)
-    f2s, omega = model_terms(kind, u[0], ys, z[1], q, hbar, eps2, dfmax)
-    dz[0] = z[1] - u[0] * y[0] - dz[0]
+    ys, f1, f2s, omega = p.model(y[0], u[0], z[0], z[1], p)
+    Lb = math.sqrt(L) if p.b == 0.5 else math.pow(L, p.b)
+    correction((z[0] - ys) / Lb, L, Lb, p.q, p.ell, p.homogeneous, 2, dz)
+    dz[0] = z[1] + f1 - dz[0]
     dz[1] = f2s - dz[1]
-    dz[2] = gain_rate(L, phi1, phi2, phi3, omega) if dynamic else 0.0
+    dz[2] = gain_rate(L, p.phi1, p.phi2, p.phi3, omega) if p.dynamic else 0.0
 
 
 def update(t, z, d, y, u, p):
     """At the first call (t = 0): L(0) = phi2 + (phi3/phi1) Omega(0), the equilibrium of (8)."""
     if d[0] > 0.5:
         return
-    hbar, eps1, eps2 = p[9], p[10], p[11]
-    ys = clip(y[0], eps1, 1.0 - eps2)
-    omega = omega_now(int(p[6]), u[0], ys, z[1], p[0], hbar, eps2, p[12])
-    z[2] = p[3] + p[4] / p[2] * omega
+    omega = p.model(y[0], u[0], z[0], z[1], p)[3]
+    z[2] = p.phi2 + p.phi3 / p.phi1 * omega
     d[0] = 1.0
 
 
 def estimate(t, z, d, p, xhat):
-    """eta^ = F^{-1} of the saturated x^ (bounds at the observer's own x^1s)."""
-    hbar, eps1, eps2 = p[9], p[10], p[11]
-    x1s = clip(z[0], eps1, 1.0 - eps2)
-    x2s = clip(z[1], x2_low(x1s, eps2, hbar), x2_high(x1s, hbar))
-    xhat[0] = x1s
-    xhat[1] = eta2_of_x(x1s, x2s, hbar)
+    """The plant state of the estimate: p.to_state of x^ (Contois: eta^ = F^{-1})."""
+    xhat[0], xhat[1] = p.to_state(z[0], z[1], p)
 
 
 def stiffness(t, z, d, p):
     """Spectral radius of the linear error dynamics now: rho_lin L."""
-    return p[13] * z[2]
+    return p.rho_lin * z[2]
+
+
+def identity_state(x1, x2, p):
+    """The estimate in the plant's coordinates when the model is written in them."""
+    return x1, x2
 
 
 def linear_gains(n: int, d: float, ell: float, homogeneous: bool) -> np.ndarray:
@@ -179,8 +199,15 @@ def homogeneous_dynamic_hgo(name: str, rate_bound: str = "omega2", p: float = 0.
                             correction: str = "homogeneous", hbar: float = 0.8,
                             u_min: float = 0.01, u_max: float = 0.7,
                             eta_hat0: Sequence[float] = (0.5, 0.3),
-                            L0: float | None = None) -> Observer:
-    """Build the observer; eps1, eps2 and df2max are computed from (hbar, u_min, u_max)."""
+                            L0: float | None = None, model=None, to_state=None,
+                            model_params: dict | None = None,
+                            xhat0: Sequence[float] | None = None) -> Observer:
+    """Build the observer. Default model: Contois, whose eps1, eps2 and df2max are computed
+    from (hbar, u_min, u_max), with rate bound ``rate_bound``. A user's ``model`` (and
+    ``to_state``, default the identity) with its named ``model_params`` and the initial
+    estimate ``xhat0`` replaces it (module doc); rate_bound, hbar, u_min, u_max and
+    eta_hat0 are then unused. L0 = null starts at the equilibrium of (8) with the model's
+    Omega."""
     key = f"observer.{name}"
     _check(rate_bound in RATE_BOUNDS, f"{key}.rate_bound: '{rate_bound}' not in "
            f"{sorted(RATE_BOUNDS)}")
@@ -197,22 +224,36 @@ def homogeneous_dynamic_hgo(name: str, rate_bound: str = "omega2", p: float = 0.
            f"{key}.eta_hat0 must be 2 entries > 0 with sum <= 1, got {list(eta_hat0)}")
     _check(L0 is None or (math.isfinite(L0) and L0 >= phi2),
            f"{key}.L0 must be null (equilibrium of (8)) or >= phi2={phi2}, got {L0}")
-    eps1, eps2 = invariance_eps(hbar, u_min, u_max)
-    dfmax = df2max_search(hbar, u_min, u_max)["df2max"]
     hom = correction == "homogeneous"
     c = linear_gains(2, p, ell, hom)
     roots = np.roots(np.concatenate([[1.0], c]))
     if not np.all(roots.real < 0):  # (the message formats an array: only when it fails)
         raise ValueError(f"{key}: the linear part of the correction is not Hurwitz (roots "
                          f"{roots})")
-    params = np.array([p, b, phi1, phi2, phi3, ell, RATE_BOUNDS[rate_bound],
-                       gain == "dynamic", hom, hbar, eps1, eps2, dfmax,
-                       float(np.max(np.abs(roots)))], float)
-    z0 = np.array([*to_x(eta_hat0, hbar), math.nan if L0 is None else L0], float)
+    constants = {"dynamic": gain == "dynamic", "homogeneous": hom}
+    values = {"q": p, "b": b, "phi1": phi1, "phi2": phi2, "phi3": phi3, "ell": ell,
+              "rho_lin": float(np.max(np.abs(roots)))}
+    if model is None:
+        eps1, eps2 = invariance_eps(hbar, u_min, u_max)
+        constants.update(model=contois_model, to_state=contois_state,
+                         kind=RATE_BOUNDS[rate_bound])
+        values.update(hbar=hbar, eps1=eps1, eps2=eps2,
+                      df2max=df2max_search(hbar, u_min, u_max)["df2max"])
+        x_hat0 = to_x(eta_hat0, hbar)
+    else:
+        constants.update(model=user_function(f"{key}.model", model),
+                         to_state=identity_state if to_state is None
+                         else user_function(f"{key}.to_state", to_state))
+        values.update(model_params or {})
+        _check(xhat0 is not None and len(xhat0) == 2, f"{key}.xhat0 must be 2 numbers (the "
+               f"initial x^ of a user's model), got {xhat0}")
+        x_hat0 = np.asarray(xhat0, float)
+    z0 = np.array([*x_hat0, math.nan if L0 is None else L0], float)
     if L0 is None:
         z0[2] = phi2  # replaced at t = 0 by the equilibrium (update)
     return Observer(name=name, state_names=["xhat1", "xhat2", "L"], disc_names=["L_set"],
                     estimated_states=[0, 1], z0=z0,
-                    d0=np.array([0.0 if L0 is None else 1.0]), p=params, f=f,
+                    d0=np.array([0.0 if L0 is None else 1.0]), p=Params(constants, **values),
+                    f=f,
                     estimate=estimate, update=update, stiffness=stiffness,
                     signals={"x": [0, 1], "L": [2]})

@@ -32,13 +32,12 @@ does not peak (it tracks the measurement) and the rotor position grows without b
 speed tracking, so a saturated x^1 would only corrupt the position error; pass
 ``saturate_x1=True`` to saturate it as well (the paper's literal wording).
 
-Continuous state z = [x^1, ..., x^r]. Parameters (``param_names(r)``)
-p = [r, n_gains, delta, T_d, saturation, saturate_x1, w_index, b0, eps1, eps2,
-     alpha^1 (r), alpha^2 (r), m (r), H1 (r), H2 (r), rho1, rho2],
-where H_j = (alpha^j_i / eps_j^i) are the injection gains (27)-(28), precomputed by the
-factory so that ``f`` does no division or power per evaluation, and rho_j the spectral
-radius of the injection matrix with gain H_j (the opt-in hook ``stiffness`` returns the
-active one). Derived entries: change alpha or
+Continuous state z = [x^1, ..., x^r]. Parameters (by name): constants r, n_gains (1 or 2),
+saturate_x1, w_index; values delta, T_d, saturation, b0, eps1, eps2, alpha1 (r),
+alpha2 (r), m (r), H1 (r), H2 (r), rho1, rho2, where H_j = (alpha^j_i / eps_j^i) are the
+injection gains (27)-(28), precomputed by the factory so that ``f`` does no division or
+power per evaluation, and rho_j the spectral radius of the injection matrix with gain H_j
+(the opt-in hook ``stiffness`` returns the active one). Derived entries: change alpha or
 eps through the factory, not by editing p.
 Discrete state d (``DISC_NAMES``) = [gain (active index 1 or 2), eps (active eps, for
 plotting eps(t)), t_enter (time the error entered the zone, -1 when outside), timer (time
@@ -53,54 +52,42 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from hgo.components import Observer
-from hgo.engine.jit import kernel_helper
+from hgo.core.components import Observer, Params
+from hgo.engine.jit import record_helper
 
 #: Names of the discrete state entries (see module docstring).
 DISC_NAMES = ["gain", "eps", "t_enter", "timer", "n_switches", "t_switch"]
-_HEAD = ["r", "n_gains", "delta", "T_d", "saturation", "saturate_x1", "w_index", "b0",
-         "eps1", "eps2"]
-_N_HEAD = len(_HEAD)
 _TIME_TOL = 1e-12
 
 
-def param_names(r: int) -> list[str]:
-    """Names of the parameter vector entries of an observer of order r."""
-    return (_HEAD + [f"alpha1_{i + 1}" for i in range(r)] + [f"alpha2_{i + 1}" for i in range(r)]
-            + [f"m_{i + 1}" for i in range(r)] + [f"H1_{i + 1}" for i in range(r)]
-            + [f"H2_{i + 1}" for i in range(r)] + ["rho1", "rho2"])
-
-
-@kernel_helper
+@record_helper
 def saturated(i, value, p):
-    """Estimate i (0-based) saturated at +-p[4]; x^1 only if p[5] != 0."""
-    if i == 0 and p[5] == 0.0:
+    """Estimate i (0-based) saturated at +-p.saturation; x^1 only if p.saturate_x1."""
+    if i == 0 and not p.saturate_x1:
         return value
-    return min(max(value, -p[4]), p[4])
+    return min(max(value, -p.saturation), p.saturation)
 
 
-@kernel_helper
-def nominal_model(z, y, u, p, r):
+@record_helper
+def nominal_model(z, y, u, p):
     """phi0(x^, w, u) = sum_i m_i sat(x^_i) + b0 w u (Ahrens & Khalil (8), Assumption 3)."""
     phi = 0.0
-    for i in range(r):
-        mi = p[_N_HEAD + 2 * r + i]
+    for i in range(p.r):
+        mi = p.m[i]
         if mi != 0.0:
             phi += mi * saturated(i, z[i], p)
-    w_index = int(p[6])
-    if w_index >= 0 and p[7] != 0.0:
-        phi += p[7] * y[w_index] * u[0]
+    if p.w_index >= 0 and p.b0 != 0.0:
+        phi += p.b0 * y[p.w_index] * u[0]
     return phi
 
 
 def f(t, z, d, y, u, p, dz):
     """Ahrens & Khalil (26) with H = H1 (27) or H2 (28) as selected by d[0]."""
-    r = z.shape[0]  # = p[0]; the view's length is a compile-time constant: loops unroll
-    h0 = _N_HEAD + 3 * r if d[0] < 1.5 else _N_HEAD + 4 * r  # precomputed H1 or H2
+    H = p.H1 if d[0] < 1.5 else p.H2  # precomputed alpha_i / eps^i
     e = y[0] - z[0]
-    for i in range(r - 1):
-        dz[i] = z[i + 1] + p[h0 + i] * e
-    dz[r - 1] = nominal_model(z, y, u, p, r) + p[h0 + r - 1] * e
+    for i in range(p.r - 1):
+        dz[i] = z[i + 1] + H[i] * e
+    dz[p.r - 1] = nominal_model(z, y, u, p) + H[p.r - 1] * e
 
 
 def stiffness(t, z, d, p):
@@ -113,14 +100,13 @@ def stiffness(t, z, d, p):
     when T_d = 0 (tests/test_ak_claims.py::test_claim1_no_delay_switches_repeatedly), so
     the paper's experiments keep the constant worst-case ``spectral_radius``.
     """
-    r = z.shape[0]
-    return p[_N_HEAD + 5 * r] if d[0] < 1.5 else p[_N_HEAD + 5 * r + 1]
+    return p.rho1 if d[0] < 1.5 else p.rho2
 
 
 def update(t, z, d, y, u, p):
     """Switching scheme of Ahrens & Khalil Section 3.1 on the output error y - x^1."""
     e = y[0] - z[0]
-    if abs(e) > p[2]:  # rule 1: outside the zone, reset the timer, H = H1
+    if abs(e) > p.delta:  # rule 1: outside the zone, reset the timer, H = H1
         d[2] = -1.0
         d[3] = 0.0
         if d[0] > 1.5:
@@ -132,17 +118,16 @@ def update(t, z, d, y, u, p):
             d[2] = t
         d[3] = t - d[2]
         # rule 3: after T_d inside the zone, H = H2
-        if p[1] > 1.5 and d[0] < 1.5 and d[3] >= p[3] - _TIME_TOL * max(1.0, t):
+        if p.n_gains > 1 and d[0] < 1.5 and d[3] >= p.T_d - _TIME_TOL * max(1.0, t):
             d[0] = 2.0
             d[4] += 1.0
             d[5] = t
-    d[1] = p[8] if d[0] < 1.5 else p[9]
+    d[1] = p.eps1 if d[0] < 1.5 else p.eps2
 
 
 def estimate(t, z, d, p, xhat):
     """The saturated estimate x^ fed to the controller and to the error metrics."""
-    r = z.shape[0]
-    for i in range(r):
+    for i in range(p.r):
         xhat[i] = saturated(i, z[i], p)
 
 
@@ -233,8 +218,10 @@ def switched_hgo(name: str, alpha1: Sequence[float], eps1: float,
     h2 = a2 / e2 ** np.arange(1, r + 1)
     rho1 = spectral_radius([a1], [eps1], m)
     rho2 = spectral_radius([a2], [e2], m)
-    p = np.concatenate([[r, n_gains, delta, T_d, saturation, float(bool(saturate_x1)),
-                         w_index, input_gain, eps1, e2], a1, a2, m, h1, h2, [rho1, rho2]])
+    p = Params({"r": r, "n_gains": n_gains, "saturate_x1": bool(saturate_x1),
+                "w_index": int(w_index)},
+               delta=delta, T_d=T_d, saturation=saturation, b0=input_gain, eps1=eps1, eps2=e2,
+               alpha1=a1, alpha2=a2, m=m, H1=h1, H2=h2, rho1=rho1, rho2=rho2)
     rho = max(rho1, rho2)
     d0 = np.array([1.0, eps1, -1.0, 0.0, 0.0, -1.0])
     uses_w = w_index >= 0 and input_gain != 0.0  # phi0's b0 w u term reads y[w_index], u[0]

@@ -27,9 +27,9 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from hgo.components import Observer, Params
+from hgo.core.components import Observer, Params
+from hgo.core.errors import as_floats
 from hgo.engine.jit import kernel_helper
-from hgo.errors import as_floats
 
 LAWS = {"constant": 0, "sign_indefinite": 1, "dead_zone": 2}
 

@@ -13,20 +13,24 @@ written in form (2) with the split g(s) = s + psi(s), psi(s) = s^3 - 2 s (readin
 the implementation notes: the only split matching the paper's A_L, the "-2" of phi and
 G(s)): A = [[-1, 1], [0, -a]], G = C^T = [1, 0]^T, H = [0, 1], B = [0, 1]^T.
 
-Parameters p = [A (n*n, row-major), G (n), C (n), H (n), B (n), n_c, c_0 .. c_{n_c-1}].
+Parameters (by name): constants n and psi (the nonlinearity, called psi(s, psi_c));
+values A (n x n), G, C, H, B (n each) and psi_c (psi's parameters: the coefficients
+[c_0, c_1, ...] of the default polynomial psi, :func:`polynomial`). A user's psi is any
+function psi(s, c) numba can compile (or plain Python, on the slower path), with its
+global sector lower bound K1 given by the user (Moreno (6), for the theory rows).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from hgo.components import Plant
+from hgo.core.components import Params, Plant, user_function
 from hgo.engine.jit import kernel_helper
-from hgo.papers.moreno.sector import global_sector_lower
+from hgo.plants.sector import global_sector_lower
 
 
 @kernel_helper
@@ -38,32 +42,30 @@ def poly(c, s):
     return acc
 
 
+@kernel_helper
+def polynomial(s, c):
+    """The default psi of form (2): psi(s) = sum_k c[k] s^k."""
+    return poly(c, s)
+
+
 def f(t, x, u, p, dx):
-    """Moreno (2): x' = A x + G psi(H x) + B u (p layout in the module docstring)."""
-    n = x.shape[0]
-    A = p[0:n * n]
-    G = p[n * n:n * n + n]
-    H = p[n * n + 2 * n:n * n + 3 * n]
-    B = p[n * n + 3 * n:n * n + 4 * n]
-    coeffs = p[n * n + 4 * n + 1:n * n + 4 * n + 1 + int(p[n * n + 4 * n])]
+    """Moreno (2): x' = A x + G psi(H x) + B u."""
     sigma = 0.0
-    for j in range(n):
-        sigma += H[j] * x[j]
-    psi = poly(coeffs, sigma)
-    for i in range(n):
-        acc = G[i] * psi + B[i] * u[0]
-        for j in range(n):
-            acc += A[i * n + j] * x[j]
+    for j in range(p.n):
+        sigma += p.H[j] * x[j]
+    psi = p.psi(sigma, p.psi_c)
+    for i in range(p.n):
+        acc = p.G[i] * psi + p.B[i] * u[0]
+        for j in range(p.n):
+            acc += p.A[i, j] * x[j]
         dx[i] = acc
 
 
 def h(t, x, p, y):
     """y = C x."""
-    n = x.shape[0]
-    C = p[n * n + n:n * n + 2 * n]
     acc = 0.0
-    for j in range(n):
-        acc += C[j] * x[j]
+    for j in range(p.n):
+        acc += p.C[j] * x[j]
     y[0] = acc
 
 
@@ -83,7 +85,10 @@ class CircleFormPlant(Plant):
 
     def psi(self, s: np.ndarray | float) -> np.ndarray:
         """psi(s) (vectorised)."""
-        return np.polynomial.polynomial.polyval(s, self.psi_coeffs)
+        fn = self.p.psi
+        if fn is polynomial:
+            return np.polynomial.polynomial.polyval(s, self.psi_coeffs)
+        return np.vectorize(lambda v: fn(float(v), self.psi_coeffs), otypes=[float])(s)
 
     def phi(self, z, sigma):
         """Moreno (4): phi(z, sigma) = psi(sigma) - psi(sigma - z)."""
@@ -100,25 +105,36 @@ def _vector(name: str, value: Sequence[float], n: int) -> np.ndarray:
 
 
 def circle_form_plant(A: Sequence[Sequence[float]], G: Sequence[float], C: Sequence[float],
-                      H: Sequence[float], B: Sequence[float], psi: Sequence[float],
-                      x0: Sequence[float], name: str = "circle_form") -> CircleFormPlant:
-    """Plant (2) from its matrices and psi's coefficients [c_0, c_1, ...] (ascending)."""
+                      H: Sequence[float], B: Sequence[float], psi: Sequence[float] | Callable,
+                      x0: Sequence[float], name: str = "circle_form",
+                      psi_c: Sequence[float] = (), K1: float | None = None) -> CircleFormPlant:
+    """Plant (2) from its matrices and psi: the coefficients [c_0, c_1, ...] (ascending)
+    of a polynomial, or a function psi(s, c) with its parameters ``psi_c`` and the global
+    sector lower bound ``K1`` of phi(z, s) = psi(s) - psi(s - z) (Moreno (6); -inf when
+    not given: the theory rows then have no sector)."""
     A = np.asarray(A, float)
     n = A.shape[0]
     if A.ndim != 2 or A.shape != (n, n) or n < 1 or not np.all(np.isfinite(A)):
         raise ValueError(f"plant.A must be a finite square matrix, got shape {A.shape}")
     G, C, H, B, x0 = (_vector(k, v, n) for k, v in
                       (("G", G), ("C", C), ("H", H), ("B", B), ("x0", x0)))
-    coeffs = np.asarray(psi, float).reshape(-1)
-    if coeffs.size < 1 or not np.all(np.isfinite(coeffs)):
-        raise ValueError(f"plant.psi must be >= 1 finite coefficients, got {coeffs.tolist()}")
-    p = np.concatenate([A.ravel(), G, C, H, B, [coeffs.size], coeffs])
+    if callable(psi) or hasattr(psi, "func"):
+        fn = user_function("plant.psi", psi)
+        coeffs = np.asarray(psi_c, float).reshape(-1)
+        sector = -math.inf if K1 is None else float(K1)
+    else:
+        fn = polynomial
+        coeffs = np.asarray(psi, float).reshape(-1)
+        if coeffs.size < 1 or not np.all(np.isfinite(coeffs)):
+            raise ValueError(f"plant.psi must be >= 1 finite coefficients, got "
+                             f"{coeffs.tolist()}")
+        sector = global_sector_lower(coeffs) if K1 is None else float(K1)
+    p = Params({"n": n, "psi": fn}, A=A, G=G, C=C, H=H, B=B, psi_c=coeffs)
     lin = float(np.max(np.abs(np.linalg.eigvals(A))))
     return CircleFormPlant(
         name=name, state_names=[f"x{i + 1}" for i in range(n)], output_names=["y"],
         input_names=["u"], x0=x0, p=p, f=f, h=h, output_state=int(np.argmax(np.abs(C))),
-        spectral_radius=lin, A=A, G=G, C=C, H=H, B=B, psi_coeffs=coeffs,
-        K1=global_sector_lower(coeffs))
+        spectral_radius=lin, A=A, G=G, C=C, H=H, B=B, psi_coeffs=coeffs, K1=sector)
 
 
 def moreno_example_plant(a: float = 0.0, x0: Sequence[float] = (0.0, 0.0)) -> CircleFormPlant:

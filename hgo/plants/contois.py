@@ -16,7 +16,7 @@ eps1, eps2 from :func:`invariance_eps` (both conditions of the paper with equali
 reading C2 of the implementation notes), and df2max = max |df2/dx2| over
 M_u x M_x is computed by :func:`df2max` (an exact search, reported with its maximiser).
 
-Plant parameters p = [hbar]; input u (one channel), output y = eta1.
+Plant parameter hbar (by name); input u (one channel), output y = eta1.
 """
 
 from __future__ import annotations
@@ -27,10 +27,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from hgo.components import Plant
+from hgo.core.components import Params, Plant
 from hgo.engine.jit import kernel_helper
-
-PARAM_NAMES = ["hbar"]
 
 
 @kernel_helper
@@ -41,7 +39,7 @@ def reaction_rate(eta1, eta2, hbar):
 
 def f(t, x, u, p, dx):
     """Andrieu, Praly & Astolfi (11)."""
-    r = reaction_rate(x[0], x[1], p[0])
+    r = reaction_rate(x[0], x[1], p.hbar)
     dx[0] = r - u[0] * x[0]
     dx[1] = -r + u[0] * (1.0 - x[1])
 
@@ -208,5 +206,5 @@ def contois_plant(eta0: Sequence[float] = (0.3, 0.5), hbar: float = 1.0) -> Plan
     if not (math.isfinite(hbar) and hbar > 0):
         raise ValueError(f"plant.hbar must be > 0, got {hbar}")
     return Plant(name="contois", state_names=["eta1", "eta2"], output_names=["y"],
-                 input_names=["u"], x0=np.asarray(eta0, float), p=np.array([hbar], float),
+                 input_names=["u"], x0=np.asarray(eta0, float), p=Params(hbar=hbar),
                  f=f, h=h, output_state=0, spectral_radius=2.0)

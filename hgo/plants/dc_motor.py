@@ -24,7 +24,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from hgo.components import Params, Plant
+from hgo.core.components import Params, Plant
 
 #: Equilibrium armature current at rest, e / c = 200 / 2 (A).
 X3_REST = 100.0

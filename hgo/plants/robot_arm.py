@@ -11,7 +11,7 @@ theta = (2, 9.81); x(0) = (1, 1).
 z = Hx of Dimassi et al. Sec. IV with H = I: only for the diagnostic "ideal z_h" run of the
 cascade observer, ``observer.*.hgo: ideal``; not in the paper).
 
-Parameters p = [I, m, g, l, n_out].
+Parameters (by name): I, m, g, l; constant n_out (the number of outputs).
 """
 
 from __future__ import annotations
@@ -21,31 +21,36 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from hgo.components import Plant
+from hgo.core.components import Params, Plant
 
-#: Names of the entries of the parameter vector p.
-PARAM_NAMES = ["I", "m", "g", "l", "n_out"]
 OUTPUTS = {"y": ["y"], "Hx": ["y", "x2"]}
 
 
 def f(t, x, u, p, dx):
     """Dimassi et al. (24): I q'' = u - (1/2) m g l sin q."""
-    inertia, m, g, length = p[0], p[1], p[2], p[3]
     dx[0] = x[1]
-    dx[1] = (u[0] - 0.5 * m * g * length * math.sin(x[0])) / inertia
+    dx[1] = (u[0] - 0.5 * p.m * p.g * p.l * math.sin(x[0])) / p.I
 
 
 def h(t, x, p, y):
     """y = x1 (and x2 when ``outputs == "Hx"``)."""
     y[0] = x[0]
-    if p[4] > 1.5:
+    if p.n_out > 1:
         y[1] = x[1]
 
 
-def true_parameters(p: np.ndarray) -> np.ndarray:
-    """theta = [1/I, m g l / (2 I)] of Dimassi et al. (25) (regressor order A1: [u, -sin y])."""
-    inertia, m, g, length = p[:4]
-    return np.array([1.0 / inertia, m * g * length / (2.0 * inertia)])
+def true_parameters(p) -> np.ndarray:
+    """theta = [1/I, m g l / (2 I)] of Dimassi et al. (25) (regressor order A1: [u, -sin y])
+    from the plant's parameters ``p`` (its ``p``, by name)."""
+    return np.array([1.0 / p.I, p.m * p.g * p.l / (2.0 * p.I)])
+
+
+def dimassi_psi(x, u, out):
+    """psi(x, u) = [u, -sin x1] (1 x 2) of Dimassi et al. (25), regressor order A1, so that
+    x2' = psi(x, u) theta with theta = (1/I, m g l/(2 I)): the robot arm's instance of the
+    cascade observer's class (:mod:`hgo.observers.adaptive_cascade`)."""
+    out[0, 0] = u[0]
+    out[0, 1] = -math.sin(x[0])
 
 
 def robot_arm_plant(x0: Sequence[float] = (1.0, 1.0), I: float = 0.5, m: float = 1.0,  # noqa: E741
@@ -62,5 +67,5 @@ def robot_arm_plant(x0: Sequence[float] = (1.0, 1.0), I: float = 0.5, m: float =
     # linearisation: eigenvalues +-sqrt(m g l / (2 I)) (i at the bottom): far from stiff
     return Plant(name="robot_arm", state_names=["x1", "x2"], output_names=names,
                  input_names=["u"], x0=np.asarray(x0, float),
-                 p=np.array([I, m, g, l, len(names)], float), f=f, h=h, output_state=0,
+                 p=Params({"n_out": len(names)}, I=I, m=m, g=g, l=l), f=f, h=h, output_state=0,
                  spectral_radius=math.sqrt(m * g * l / (2 * I)))

@@ -13,12 +13,12 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from hgo.components import Plant
+from hgo.core.components import Params, Plant
 
 
 def f(t, x, u, p, dx):
-    """Sanfelice & Praly (18); p = [nu1, nu2]."""
-    dx[0] = x[1] + p[0] * x[0] + p[1]
+    """Sanfelice & Praly (18); parameters nu1, nu2."""
+    dx[0] = x[1] + p.nu1 * x[0] + p.nu2
     dx[1] = 0.0
 
 
@@ -33,7 +33,7 @@ def sp_linear_plant(nu1: float = 0.01, nu2: float = 0.01,
     if len(x0) != 2:
         raise ValueError(f"plant.x0 must have 2 entries [x1, x2], got {list(x0)}")
     return Plant(name="sp_linear", state_names=["x1", "x2"], output_names=["y"],
-                 input_names=[], x0=np.asarray(x0, float), p=np.array([nu1, nu2], float),
+                 input_names=[], x0=np.asarray(x0, float), p=Params(nu1=nu1, nu2=nu2),
                  f=f, h=h, output_state=0, spectral_radius=abs(nu1))
 
 

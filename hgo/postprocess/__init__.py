@@ -13,7 +13,7 @@ from typing import Protocol
 
 from hgo.engine.simulate import Trajectory
 from hgo.engine.system import System
-from hgo.recording import Series
+from hgo.outputs.recording import Series
 
 
 @dataclass

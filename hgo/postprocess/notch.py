@@ -39,9 +39,9 @@ import numpy as np
 
 from hgo.engine.simulate import Trajectory
 from hgo.engine.system import System
+from hgo.outputs.recording import Series
 from hgo.postprocess import PostOutput
 from hgo.postprocess.oscillation import peak_to_peak, window_slice
-from hgo.recording import Series
 
 
 @dataclass(frozen=True)

@@ -10,8 +10,9 @@ from __future__ import annotations
 
 import math
 
-from hgo.claims import NOT_REPRODUCED, REPRODUCED, Measured, claim, run_rows
+from hgo.core.registry import NOT_REPRODUCED, REPRODUCED, Measured, claim
 from hgo.papers.ahrens_khalil.postprocess import TradeoffAnalysis, analyse_tradeoff
+from hgo.running.in_memory import run_rows
 
 PAPER = "ahrens_khalil"
 FIG1_SHORT = ("experiment=ak_fig1", "solver.t_end=0.5", "postprocess.ak.late_window=0.2")

@@ -1,6 +1,6 @@
 """Structured-config schemas of the Ahrens & Khalil (2008) components.
 
-Stored from :data:`SCHEMAS` by :func:`hgo.config.register_configs`:
+Stored from :data:`SCHEMAS` by :func:`hgo.core.config.register_configs`:
 
 * ``schema/plant/dc_motor``: the field-controlled DC motor (38)-(39)
   (:func:`hgo.plants.dc_motor.dc_motor_plant`);
@@ -95,7 +95,7 @@ class AKMetricsConf:
     late_window: float = 1.0
 
 
-# what hgo.config.register_configs stores: "<group>/<name>" -> schema, under schema/
+# what hgo.core.config.register_configs stores: "<group>/<name>" -> schema, under schema/
 SCHEMAS = {
     "plant/dc_motor": DCMotorPlantConf,
     "observer/switched_hgo": SwitchedHGOConf,

@@ -29,9 +29,9 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from hgo.figures import panel_letters, save_figure
+from hgo.core.registry import PaperFigure
+from hgo.outputs.figures import panel_letters, save_figure
 from hgo.papers.ahrens_khalil.postprocess import TRACKING
-from hgo.reproduce import PaperFigure
 
 LOOP_LABELS = {"switched": "the switched-gain observer",
                "fixed_eps2": r"the fixed $\varepsilon_2 = 0.01$ observer",
@@ -55,10 +55,10 @@ def _loop_observer(result):
 
 def _label(obs) -> str:
     p = obs.p
-    if int(p[1]) == 2:
-        return (rf"{obs.name}: $\varepsilon_1 = {p[8]:g} \to \varepsilon_2 = {p[9]:g}$ "
-                f"after $T_d = {p[3]:g}$ s")
-    return rf"{obs.name}: fixed $\varepsilon = {p[8]:g}$"
+    if p.n_gains == 2:
+        return (rf"{obs.name}: $\varepsilon_1 = {p.eps1:g} \to \varepsilon_2 = {p.eps2:g}$ "
+                f"after $T_d = {p.T_d:g}$ s")
+    return rf"{obs.name}: fixed $\varepsilon = {p.eps1:g}$"
 
 
 def fig1(result, path) -> None:
@@ -141,7 +141,7 @@ def sweep_figure(sweep: str | Path, which: str = "fig2", late_window: float = 1.
     """
     import pandas as pd
 
-    from hgo.recording import read_arrays
+    from hgo.outputs.recording import read_arrays
 
     sweep = Path(sweep)
     panels, skipped = [], []

@@ -33,13 +33,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from hgo.core.errors import ConfigError
 from hgo.engine.simulate import Trajectory
 from hgo.engine.system import System
-from hgo.errors import ConfigError
-from hgo.metrics import window_max_error, window_means
 from hgo.observers.switched_hgo import DISC_NAMES
+from hgo.outputs.metrics import window_max_error, window_means
+from hgo.outputs.recording import Series
 from hgo.postprocess import PostOutput
-from hgo.recording import Series
 
 TRACKING = "/ak/tracking"
 _SWITCH_NAMES = tuple(DISC_NAMES)

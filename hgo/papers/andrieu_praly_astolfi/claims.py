@@ -12,8 +12,9 @@ import math
 
 import numpy as np
 
-from hgo.claims import PARTLY, REPRODUCED, Measured, claim, run_in_memory, run_rows
+from hgo.core.registry import PARTLY, REPRODUCED, Measured, claim
 from hgo.papers.andrieu_praly_astolfi.theory import order_check, setup_constants
+from hgo.running.in_memory import run_in_memory, run_rows
 
 PAPER = "andrieu_praly_astolfi"
 OBS = ("df2max", "omega1", "omega2")

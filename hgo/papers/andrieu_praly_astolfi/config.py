@@ -1,6 +1,6 @@
 """Structured-config schemas of the Andrieu, Praly & Astolfi (2007) components.
 
-Stored from :data:`SCHEMAS` by :func:`hgo.config.register_configs`:
+Stored from :data:`SCHEMAS` by :func:`hgo.core.config.register_configs`:
 
 * ``schema/plant/contois``: the Contois bioreactor (11) (:func:`hgo.plants.contois.contois_plant`);
 * ``schema/observer/homogeneous_dynamic_hgo``: observer (7)-(8) on the form (12)
@@ -8,7 +8,7 @@ Stored from :data:`SCHEMAS` by :func:`hgo.config.register_configs`:
 * ``schema/controller/schedule``: the piecewise-constant input of Section 3.1
   (:func:`hgo.controllers.schedule.schedule_input`);
 * ``schema/postprocess/apa_metrics``: rates Omega, df2/dx2, errors and window metrics
-  (:func:`hgo.postprocess.apa.apa_metrics`).
+  (:func:`hgo.papers.andrieu_praly_astolfi.postprocess.apa_metrics`).
 
 Defaults are the paper's values (Section 3.1) and, where it is silent, the readings
 C1-C18 of ``shared/specs/apa.md`` (named next to each key).
@@ -64,7 +64,7 @@ class APAMetricsConf:
     """Windows of the metrics (notes section 8): late, post-transient, transient, steady
     parts of the input segments; thresholds of the convergence times."""
 
-    _target_: str = "hgo.postprocess.apa.apa_metrics"
+    _target_: str = "hgo.papers.andrieu_praly_astolfi.postprocess.apa_metrics"
     late: list[float] = field(default_factory=lambda: [40.0, 50.0])
     post: list[float] = field(default_factory=lambda: [10.0, 50.0])
     transient: list[float] = field(default_factory=lambda: [0.0, 10.0])
@@ -73,7 +73,7 @@ class APAMetricsConf:
     thresholds: list[float] = field(default_factory=lambda: [0.1, 0.01])
 
 
-# what hgo.config.register_configs stores: "<group>/<name>" -> schema, under schema/
+# what hgo.core.config.register_configs stores: "<group>/<name>" -> schema, under schema/
 SCHEMAS = {
     "plant/contois": ContoisPlantConf,
     "observer/homogeneous_dynamic_hgo": HomogeneousDynamicHGOConf,

@@ -16,9 +16,9 @@ from __future__ import annotations
 import matplotlib.pyplot as plt
 import numpy as np
 
-from hgo.figures import legend_outside, panel_letters, save_figure
-from hgo.postprocess.apa import RATE
-from hgo.reproduce import PaperFigure
+from hgo.core.registry import PaperFigure
+from hgo.outputs.figures import legend_outside, panel_letters, save_figure
+from hgo.papers.andrieu_praly_astolfi.postprocess import RATE
 
 ORDER = ("df2max", "omega1", "omega2")
 COLOURS = {"df2max": "tab:red", "omega1": "tab:blue", "omega2": "tab:green"}

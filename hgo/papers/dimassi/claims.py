@@ -8,7 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from hgo.claims import NOT_REPRODUCED, PARTLY, REPRODUCED, Measured, claim, run_in_memory
+from hgo.core.registry import NOT_REPRODUCED, PARTLY, REPRODUCED, Measured, claim
+from hgo.running.in_memory import run_in_memory
 
 PAPER = "dimassi"
 NOMINAL = ("experiment=dhlm_example",)

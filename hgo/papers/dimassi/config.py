@@ -1,13 +1,13 @@
 """Structured-config schemas of the Dimassi et al. (STA 2019) components.
 
-Stored from :data:`SCHEMAS` by :func:`hgo.config.register_configs`:
+Stored from :data:`SCHEMAS` by :func:`hgo.core.config.register_configs`:
 
 * ``schema/plant/robot_arm``: the arm (24)-(25) (:func:`hgo.plants.robot_arm.robot_arm_plant`);
 * ``schema/controller/sinusoids``: u = sum a_k sin(w_k t) + b_k cos(w_k t)
   (:func:`hgo.controllers.sinusoids.sinusoids_controller`);
 * ``schema/observer/adaptive_cascade``: HGO (6) in cascade with (5), (7) [, (11)]
   (:func:`hgo.observers.adaptive_cascade.adaptive_cascade`);
-* ``schema/postprocess/dhlm_metrics``: :func:`hgo.postprocess.dhlm.dhlm_metrics`.
+* ``schema/postprocess/dhlm_metrics``: :func:`hgo.papers.dimassi.postprocess.dhlm_metrics`.
 
 Defaults are the paper's Sec. IV values; the open choices (implementation notes
 ``shared/specs/dhlm.md`` A1-A16) are documented in the factories' modules and the YAMLs.
@@ -74,7 +74,7 @@ class AdaptiveCascadeConf:
 class DHLMMetricsConf:
     """Window W = [window_start, t_end], T(eps) = T_eps_factor eps, bands; theory rows."""
 
-    _target_: str = "hgo.postprocess.dhlm.dhlm_metrics"
+    _target_: str = "hgo.papers.dimassi.postprocess.dhlm_metrics"
     window_start: float = 10.0
     T_eps_factor: float = 25.0
     peak_band: float = 1.0
@@ -85,7 +85,7 @@ class DHLMMetricsConf:
     beta: str = "measured"
 
 
-# what hgo.config.register_configs stores: "<group>/<name>" -> schema, under schema/
+# what hgo.core.config.register_configs stores: "<group>/<name>" -> schema, under schema/
 SCHEMAS = {
     "plant/robot_arm": RobotArmPlantConf,
     "controller/sinusoids": SinusoidsConf,

@@ -1,6 +1,6 @@
 """Figures of Dimassi et al. Sec. IV (Figs. 1-5) and an error panel, from one run.
 
-Each function takes a :class:`hgo.runner.RunResult` and a path and writes one PNG (t in s on
+Each function takes a :class:`hgo.running.runner.RunResult` and a path and writes one PNG (t in s on
 every abscissa, implementation notes 9):
 
 * :func:`fig1`: z_12 = x2 (solid) and its HGO estimate z^_12 (dashed: the saturated z_h12^s
@@ -19,10 +19,10 @@ import dataclasses
 import matplotlib.pyplot as plt
 import numpy as np
 
+from hgo.core.registry import PaperFigure
 from hgo.engine.simulate import no_noise, simulate
-from hgo.figures import legend_outside, panel_letters, save_figure
 from hgo.observers import adaptive_cascade as ac
-from hgo.reproduce import PaperFigure
+from hgo.outputs.figures import legend_outside, panel_letters, save_figure
 
 INSET_HGO = 0.03  # s, Fig. 1 inset
 INSET_TRANSIENT = 1.0  # s, Figs. 2-5 insets

@@ -16,7 +16,7 @@ import matplotlib.pyplot as plt
 import pandas as pd
 from hydra.experimental.callback import Callback
 
-from hgo.figures import save_figure
+from hgo.outputs.figures import save_figure
 
 PANELS = (("max_abs_e2_W", "max |e2| on W [rad/s]"),
           ("rms_rel_theta_err1_W", "RMS theta~1/theta1 on W"),
@@ -59,11 +59,9 @@ def sweep_figure(metrics_all: Path, path: Path) -> Path:
 
 
 def report(sweep: str | Path) -> Path:
-    """metrics_all.csv/.md (experiments/aggregate.py, no Fig.-3 panel) and sweep.png."""
-    root = Path(__file__).resolve().parents[3]
-    if str(root / "experiments") not in sys.path:
-        sys.path.insert(0, str(root / "experiments"))
-    from aggregate import aggregate
+    """metrics_all.csv/.md (:func:`hgo.running.aggregate.aggregate`, no comparison panel)
+    and sweep.png."""
+    from hgo.running.aggregate import aggregate
 
     paths = aggregate(sweep, observer="cascade", figure=False)
     return sweep_figure(paths["csv"], Path(sweep) / "sweep.png")

@@ -13,7 +13,7 @@
   (20), (23) (OCR fixes A7, A9: K_psi |theta|, sqrt(V) moved in (21)).
 
 The SDPs reuse the cvxpy + Clarabel set-up and the monotone bisection of
-:mod:`hgo.lmi` (shared with Sanfelice & Praly (8)-(10)).
+:mod:`hgo.core.lmi` (shared with Sanfelice & Praly (8)-(10)).
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ import cvxpy as cp
 import numpy as np
 import scipy.linalg as sla
 
-from hgo.lmi import bisect, sym
+from hgo.core.lmi import bisect, sym
 from hgo.observers.adaptive_cascade import hgo_matrix
 
 SOLVER = "CLARABEL"

@@ -1,6 +1,6 @@
 """Claims of Moreno (notes section 12, C1-C18), each measured on runs or computations.
 
-Runs (cached by :func:`hgo.claims.run_in_memory`): ``moreno_fig1`` (a = 0, Fig. 1 gains
+Runs (cached by :func:`hgo.core.registry.run_in_memory`): ``moreno_fig1`` (a = 0, Fig. 1 gains
 k = 2, l1 = 200, l2 = 120, pulse input, 10 s), its bad-input twin, and ``moreno_pe`` jobs
 (40 s) picked by overrides. Readings (implementation notes section 11) are named per claim.
 """
@@ -12,21 +12,14 @@ import math
 import numpy as np
 from scipy.optimize import brentq
 
-from hgo.claims import (
-    PARTLY,
-    REPRODUCED,
-    THEORY_ONLY,
-    Measured,
-    claim,
-    run_in_memory,
-    run_rows,
-)
 from hgo.controllers.profile_input import profile
+from hgo.core.registry import PARTLY, REPRODUCED, THEORY_ONLY, Measured, claim
 from hgo.papers.moreno import theory as th
-from hgo.papers.moreno.sector import global_sector_lower, numerical_sector_lower, sector_lower
+from hgo.papers.moreno.postprocess import MorenoCertificate, first_time_below
 from hgo.papers.moreno.sector_table import example_error_system
 from hgo.plants.circle_form import example_rhs, moreno_example_plant
-from hgo.postprocess.moreno import MorenoCertificate, first_time_below
+from hgo.plants.sector import global_sector_lower, numerical_sector_lower, sector_lower
+from hgo.running.in_memory import run_in_memory, run_rows
 
 P = "moreno"
 FIG1 = ("experiment=moreno_fig1",)
@@ -57,7 +50,7 @@ def _q(overrides: tuple[str, ...], quantity: str, observer: str = "circle") -> f
 def _crossing(overrides: tuple[str, ...], level: float) -> float:
     """First t at which the run's x2-profile r(t) reaches ``level`` (root of r - level)."""
     c = run_in_memory(overrides).experiment.system.controller
-    t_on, tau = c.p[2], c.p[3]
+    t_on, tau = c.p.t_on, c.p.tau
     return float(brentq(lambda t: profile(t, c.p)[0] - level, t_on, t_on + tau))
 
 

@@ -1,6 +1,6 @@
 """Structured-config schemas of the Moreno components.
 
-Stored from :data:`SCHEMAS` by :func:`hgo.config.register_configs`:
+Stored from :data:`SCHEMAS` by :func:`hgo.core.config.register_configs`:
 
 * ``schema/plant/moreno_example``: the example of Section 5 in form (2)
   (:func:`hgo.plants.circle_form.moreno_example_plant`);
@@ -11,7 +11,7 @@ Stored from :data:`SCHEMAS` by :func:`hgo.config.register_configs`:
 * ``schema/controller/profile_input``: inputs u = r' + a r of a profile r
   (:func:`hgo.controllers.profile_input.profile_input`);
 * ``schema/postprocess/moreno_certificate``: (9)-(14), Theorems 2-3 along a run
-  (:func:`hgo.postprocess.moreno.moreno_certificate`);
+  (:func:`hgo.papers.moreno.postprocess.moreno_certificate`);
 * ``schema/postprocess/moreno_sector``: the sector table of (7)-(8)
   (:func:`hgo.papers.moreno.sector_table.sector_table`).
 """
@@ -77,7 +77,7 @@ class ProfileInputConf:
 class MorenoCertificateConf:
     """Moreno (9)-(14) along the run; lambda_P in {half_min_eig, min_eig, sharp}."""
 
-    _target_: str = "hgo.postprocess.moreno.moreno_certificate"
+    _target_: str = "hgo.papers.moreno.postprocess.moreno_certificate"
     lambda_P: str = "half_min_eig"
     delta: float = 0.1
     regularisation: str = "margin"
@@ -104,7 +104,7 @@ class MorenoSectorConf:
     rho_lo: float = -50.0
 
 
-# what hgo.config.register_configs stores: "<group>/<name>" -> schema, under schema/
+# what hgo.core.config.register_configs stores: "<group>/<name>" -> schema, under schema/
 SCHEMAS = {
     "plant/moreno_example": MorenoExampleConf,
     "plant/circle_form": CircleFormConf,

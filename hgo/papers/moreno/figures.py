@@ -8,10 +8,10 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from hgo.controllers.profile_input import profile_input
+from hgo.core.registry import PaperFigure
 from hgo.engine.simulate import Trajectory, simulate
 from hgo.engine.system import System
-from hgo.figures import legend_outside, panel_letters, save_figure
-from hgo.reproduce import PaperFigure
+from hgo.outputs.figures import legend_outside, panel_letters, save_figure
 
 BAND = 2 / math.sqrt(3)  # |sigma| <= 2/sqrt(3): phi can leave (-1, inf]
 
@@ -21,7 +21,7 @@ def bad_companion(result) -> Trajectory:
     same plant, observers, solver and noise."""
     exp = result.experiment
     sysm = exp.system
-    a = float(sysm.controller.p[1]) if sysm.controller is not None else 0.0
+    a = sysm.controller.p.a if sysm.controller is not None else 0.0
     bad = System(sysm.plant, sysm.observers, profile_input("bad", a=a))
     ny = len(sysm.plant.output_names)
     return simulate(bad, exp.solver, exp.noise.sample(exp.solver.t_end, ny, exp.seed))

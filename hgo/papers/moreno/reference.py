@@ -14,8 +14,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from hgo.components import Controller
 from hgo.controllers.profile_input import breakpoints, profile
+from hgo.core.components import Controller
 from hgo.observers.circle_criterion import CircleCriterionObserver
 from hgo.plants.circle_form import example_rhs
 
@@ -27,12 +27,12 @@ def joint_rhs(obs: CircleCriterionObserver, ctrl: Controller, a: float,
     pl = obs.plant
     A, G, C, H, B, L, N = pl.A, pl.G, pl.C, pl.H, pl.B, obs.L, obs.N
     A_L, _, H_N = obs.error_matrices()
-    cp = ctrl.p
+    cp = ctrl.p.record()
 
     def rhs(t, w):
         x, xh = w[0:2], w[2:4]
         r, dr = profile(t, cp)
-        u = dr + cp[1] * r
+        u = dr + cp.a * r
         innov = C @ x - C @ xh
         dxh = A @ xh + L * innov + G * pl.psi(H @ xh + N * innov) + B * u
         if not with_error:
@@ -57,13 +57,12 @@ def plain_rhs(obs: CircleCriterionObserver, ctrl: Controller, a: float):
     l1, l2 = obs.L.tolist()
     gain_n = obs.N
     coeffs = pl.psi_coeffs.tolist()[::-1]  # highest power first (Horner)
-    cp = ctrl.p.tolist()
-    input_profile = profile.py_func  # the profile in Python, not a call into numba
+    cp = ctrl.p.record()  # the parameters read once, as plain floats
 
     def rhs(t, w):
         x1, x2, xh1, xh2 = w.tolist()
-        r, dr = input_profile(t, cp)
-        u = dr + cp[1] * r
+        r, dr = profile(t, cp)
+        u = dr + cp.a * r
         innov = c1 * (x1 - xh1) + c2 * (x2 - xh2)
         s = h1 * xh1 + h2 * xh2 + gain_n * innov
         psi = 0.0

@@ -17,7 +17,7 @@ import pandas as pd
 
 from hgo.engine.simulate import Trajectory
 from hgo.engine.system import System
-from hgo.figures import save_figure
+from hgo.outputs.figures import save_figure
 from hgo.papers.moreno.theory import (
     ErrorSystem,
     eps_max_fd,

@@ -37,7 +37,7 @@ import cvxpy as cp
 import numpy as np
 from scipy import signal
 
-from hgo.lmi import bisect, sym
+from hgo.core.lmi import bisect, sym
 
 SOLVER = "CLARABEL"
 FEAS_TOL = 1e-9  # t* >= -FEAS_TOL: (7a) feasible (non-strict)

@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from hgo.claims import NOT_REPRODUCED, REPRODUCED, Measured, claim, run_in_memory, run_rows
+from hgo.core.registry import NOT_REPRODUCED, REPRODUCED, Measured, claim
+from hgo.running.in_memory import run_in_memory, run_rows
 
 PAPER = "sanfelice_praly"
 FIG1 = ("experiment=sp_fig1",)

@@ -1,6 +1,6 @@
 """Structured-config schemas of the Sanfelice & Praly components beyond the foundation.
 
-Stored from :data:`SCHEMAS` by :func:`hgo.config.register_configs`:
+Stored from :data:`SCHEMAS` by :func:`hgo.core.config.register_configs`:
 
 * ``schema/observer/sp_collection``: the collection (21) of N observers
   (:func:`hgo.observers.collection.sp_collection`);
@@ -78,7 +78,7 @@ class SPBoundsConf:
     L: list[float] | None = None
 
 
-# what hgo.config.register_configs stores: "<group>/<name>" -> schema, under schema/
+# what hgo.core.config.register_configs stores: "<group>/<name>" -> schema, under schema/
 SCHEMAS = {
     "observer/sp_collection": SPCollectionConf,
     "postprocess/notch": NotchConf,

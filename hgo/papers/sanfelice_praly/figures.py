@@ -1,23 +1,21 @@
 """Figures of Sanfelice & Praly (2010), Section 3: Figs. 1-5 from one run each.
 
-Each function takes a :class:`hgo.runner.RunResult` and a path and writes one PNG with
+Each function takes a :class:`hgo.running.runner.RunResult` and a path and writes one PNG with
 the quantities of the paper's figure on the same axes (time in s on the abscissa);
 legends name the law (observer name and its p2), the copy, or the filter. The sweep of
-Fig. 3 (three values of p2, three runs) is drawn by ``experiments/aggregate.py`` with
-:func:`fig3_compare` from the recordings.
+Fig. 3 (three values of p2, three runs) is the sweep's ``compare.png``, drawn by
+:func:`hgo.running.aggregate.compare_figure` from the recordings.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from pathlib import Path
 
 import matplotlib.pyplot as plt
-import numpy as np
 
-from hgo.figures import hat, legend_outside, panel_letters, save_figure
-from hgo.recording import Series
-from hgo.reproduce import PaperFigure
+from hgo.core.registry import PaperFigure
+from hgo.outputs.figures import hat, legend_outside, panel_letters, save_figure
+from hgo.outputs.recording import Series
 
 # the paper's colours: Fig. 1 blue/red, Fig. 3 blue/red/green, Figs. 4-5 green/black
 LAW_COLOURS = {"sign_indefinite": "tab:blue", "dead_zone": "tab:red"}
@@ -85,32 +83,10 @@ def fig2(result, path) -> None:
 def fig3(result, path) -> None:
     """Fig. 3 for one run (one p2): x^1, x^2, r of law (6) on the zero plant solution.
 
-    The three values of p2 together: :func:`fig3_compare` (``experiments/aggregate.py``).
+    The three values of p2 together: the sweep's ``compare.png``
+    (:func:`hgo.running.aggregate.compare_figure`, titled :data:`FIG3_TITLE`).
     """
     _estimates_and_gain(result, path, "Sanfelice & Praly Fig. 3: oscillation of law (6)")
-
-
-def fig3_compare(runs: Sequence[tuple[str, dict[str, np.ndarray]]], path,
-                 observer: str = "sign_indefinite") -> None:
-    """Fig. 3: x^1, x^2, r of several runs (label, recording as from ``read_arrays``)."""
-    colours = ["tab:blue", "tab:red", "tab:green", "tab:orange", "tab:purple"]
-    fig, axes = plt.subplots(3, 1, figsize=(10, 8), sharex=True)
-    for k, (label, rec) in enumerate(runs):
-        t = rec["sim_time"]
-        xh = rec[f"/observer/{observer}/xhat"]
-        r = rec[f"/observer/{observer}/r"]
-        c = colours[k % len(colours)]
-        axes[0].plot(t, xh[:, 0], color=c, lw=1, label=label)
-        axes[1].plot(t, xh[:, 1], color=c, lw=1, label=label)
-        axes[2].plot(t, r[:, 0], color=c, lw=1, label=label)
-    for ax, name in zip(axes, [hat("x1"), hat("x2"), "gain $r$"], strict=True):
-        ax.set_ylabel(f"{name} (–)")
-        legend_outside(ax)
-    panel_letters(axes)
-    fig.suptitle(r"Sanfelice & Praly Fig. 3: law (6), $p_1 = 4/3$, $\nu_1 = 3$, "
-                 "zero plant solution")
-    axes[2].set_xlabel("$t$ (s)")
-    save_figure(fig, path)
 
 
 def fig4(result, path) -> None:
@@ -191,10 +167,14 @@ def fig5(result, path, zoom: float = 10.0) -> None:
 # --- what ``hgo reproduce`` runs ------------------------------------------------------------
 
 
-def _aggregate(sweep: Path) -> None:
-    from hgo.aggregate import aggregate
+FIG3_TITLE = (r"Sanfelice & Praly Fig. 3: law (6), $p_1 = 4/3$, $\nu_1 = 3$, "
+              "zero plant solution")
 
-    aggregate(sweep)
+
+def _aggregate(sweep: Path) -> None:
+    from hgo.running.aggregate import aggregate
+
+    aggregate(sweep, title=FIG3_TITLE)
 
 
 _SOLUTION = ("Components of the solution to (18)-(19) corresponding to the zero solution of "

@@ -35,7 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hgo.lmi import bisect, sym
+from hgo.core.lmi import bisect, sym
 
 __all__ = [
     "ConditionReport",

@@ -4,7 +4,7 @@ one compiled call).
 
 Each job writes into its Hydra run directory (under ``outputs/``): ``recording.rrd``
 (open with ``rerun <file>``), ``metrics.csv``, ``run.json`` (provenance, timings, status;
-see :mod:`hgo.runs`) and the composed config in ``.hydra/``. A single run prints its
+see :mod:`hgo.outputs.runs`) and the composed config in ``.hydra/``. A single run prints its
 metrics (100 columns) and its directory, and ``outputs/latest`` points at it; a sweep
 prints one line per job.
 """
@@ -22,9 +22,9 @@ from hydra.core.hydra_config import HydraConfig
 from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf
 
-from hgo.config import conf_dir, register_configs
-from hgo.console import job_line
-from hgo.job import EXIT_CONFIG, is_complete, one_line_errors, run_job
+from hgo.core.config import conf_dir, register_configs
+from hgo.outputs.console import job_line
+from hgo.running.job import EXIT_CONFIG, is_complete, one_line_errors, run_job
 
 register_configs()
 OUTPUTS = Path("outputs")

@@ -1,7 +1,7 @@
 """Combine the jobs of a Hydra sweep: one CSV, a Markdown table and a comparison figure.
 
     python experiments/aggregate.py outputs/multirun/sp_fig3/<date_time> [--out DIR]
-    python -m hgo.aggregate outputs/multirun/sp_fig3/<date_time>      # the same
+    python -m hgo.running.aggregate outputs/multirun/sp_fig3/<date_time>      # the same
 
 Reads every ``job*/metrics.csv`` with the job's overrides (``job*/.hydra/overrides.yaml``)
 and writes, in the sweep directory (or ``--out``):
@@ -22,7 +22,7 @@ and is listed too. Hydra skips ``on_multirun_end`` callbacks when a job fails, w
 this is a separate command. When all jobs succeed, the callback
 :class:`AggregateCallback` (set in ``conf/experiment/sp_fig3.yaml`` under ``hydra.callbacks``)
 runs the same aggregation at the end of the multirun (``_target_:
-hgo.aggregate.AggregateCallback``: importable from the installed package, so any launcher
+hgo.running.aggregate.AggregateCallback``: importable from the installed package, so any launcher
 can run it).
 
 The three recordings of the sweep open together in the Rerun viewer (each job has its own
@@ -36,8 +36,10 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import yaml
 from hydra.experimental.callback import Callback
@@ -73,7 +75,7 @@ def _varying(all_overrides: dict[str, list[str]]) -> dict[str, str]:
 
 def figure_label(label: str) -> str:
     """``observer.sign_indefinite.p2=3, seed=1`` -> ``$p_{2} = 3$, seed = 1``."""
-    from hgo.figures import math_label
+    from hgo.outputs.figures import math_label
 
     parts = [o.split("=", 1) for o in label.split(", ")]
     return ", ".join(math_label(*kv) if len(kv) == 2 else kv[0] for kv in parts)
@@ -163,11 +165,37 @@ def markdown(rows: pd.DataFrame, labels: dict[str, str], skipped: list[str],
     return "\n".join(out) + "\n"
 
 
+def compare_figure(runs: Sequence[tuple[str, dict[str, np.ndarray]]], path: Path,
+                   observer: str = "sign_indefinite", title: str | None = None) -> None:
+    """x̂1, x̂2 and the gain r of ``observer`` in several runs (label, recording as from
+    ``read_arrays``): the sweep's ``compare.png`` (Sanfelice & Praly Fig. 3 for sp_fig3)."""
+    import matplotlib.pyplot as plt
+
+    from hgo.outputs.figures import hat, legend_outside, panel_letters, save_figure
+
+    colours = ["tab:blue", "tab:red", "tab:green", "tab:orange", "tab:purple"]
+    fig, axes = plt.subplots(3, 1, figsize=(10, 8), sharex=True)
+    for k, (label, rec) in enumerate(runs):
+        t = rec["sim_time"]
+        xh = rec[f"/observer/{observer}/xhat"]
+        r = rec[f"/observer/{observer}/r"]
+        c = colours[k % len(colours)]
+        axes[0].plot(t, xh[:, 0], color=c, lw=1, label=label)
+        axes[1].plot(t, xh[:, 1], color=c, lw=1, label=label)
+        axes[2].plot(t, r[:, 0], color=c, lw=1, label=label)
+    for ax, name in zip(axes, [hat("x1"), hat("x2"), "gain $r$"], strict=True):
+        ax.set_ylabel(f"{name} (–)")
+        legend_outside(ax)
+    panel_letters(axes)
+    fig.suptitle(title or f"{len(runs)} runs of the sweep: observer '{observer}'")
+    axes[2].set_xlabel("$t$ (s)")
+    save_figure(fig, path)
+
+
 def comparison_figure(sweep: Path, labels: dict[str, str], exclude: set[str], path: Path,
-                      observer: str) -> list[str]:
+                      observer: str, title: str | None = None) -> list[str]:
     """Fig. 3-style comparison from the recordings; returns the jobs left out, with why."""
-    from hgo.papers.sanfelice_praly.figures import fig3_compare
-    from hgo.recording import read_arrays
+    from hgo.outputs.recording import read_arrays
 
     runs, left_out = [], []
     for job, label in labels.items():
@@ -184,12 +212,13 @@ def comparison_figure(sweep: Path, labels: dict[str, str], exclude: set[str], pa
             continue
         runs.append((figure_label(label), rec))
     if runs:
-        fig3_compare(runs, path, observer=observer)
+        compare_figure(runs, path, observer=observer, title=title)
     return left_out
 
 
 def aggregate(sweep: str | Path, out: str | Path | None = None,
-              observer: str = "sign_indefinite", figure: bool = True) -> dict[str, Path]:
+              observer: str = "sign_indefinite", figure: bool = True,
+              title: str | None = None) -> dict[str, Path]:
     """Write metrics_all.csv, metrics_all.md and compare.png; returns their paths."""
     sweep = Path(sweep)
     if not sweep.is_dir():
@@ -201,7 +230,8 @@ def aggregate(sweep: str | Path, out: str | Path | None = None,
     rows.to_csv(paths["csv"], index=False)
     if figure and labels:
         failed_jobs = {f.split(":")[0] for f in failed}
-        left = comparison_figure(sweep, labels, failed_jobs, out / "compare.png", observer)
+        left = comparison_figure(sweep, labels, failed_jobs, out / "compare.png", observer,
+                                 title)
         if (out / "compare.png").exists():
             paths["png"] = out / "compare.png"
         skipped = skipped + [f"{s} (not in compare.png)" for s in left
@@ -216,14 +246,13 @@ def aggregate(sweep: str | Path, out: str | Path | None = None,
     return paths
 
 
-def aggregate_ensemble(result, out_dir: str | Path, observer: str = "sign_indefinite"
-                       ) -> dict[str, Path]:
+def aggregate_ensemble(result, out_dir: str | Path, observer: str = "sign_indefinite",
+                       title: str | None = None) -> dict[str, Path]:
     """:func:`aggregate` of a grid ensemble (``ensemble.reports`` of e.g. ``sp_fig3_grid``):
     the same metrics_all.csv/.md with one "job" per member (``member<i>``, its overrides
     the member's varied values) and compare.png from the members' trajectories (kept when
     the config post-processes)."""
-    from hgo.papers.sanfelice_praly.figures import fig3_compare
-    from hgo.runner import signals
+    from hgo.running.runner import signals
 
     out = Path(out_dir)
     members = result.metrics[result.metrics.member != "all"].dropna(axis=1, how="all")
@@ -251,7 +280,7 @@ def aggregate_ensemble(result, out_dir: str | Path, observer: str = "sign_indefi
             if result.status[i] == 0 and f"/observer/{observer}/xhat" in rec:
                 runs.append((overrides[job], {"sim_time": tr.t, **rec}))
         if runs:
-            fig3_compare(runs, out / "compare.png", observer=observer)
+            compare_figure(runs, out / "compare.png", observer=observer, title=title)
             paths["png"] = out / "compare.png"
     print(f"aggregate: {len(jobs)} member(s) -> " + ", ".join(str(p) for p in paths.values()))
     return paths
@@ -263,12 +292,13 @@ class AggregateCallback(Callback):
     Hydra does not call it when a job fails: run ``experiments/aggregate.py <sweep>`` then.
     """
 
-    def __init__(self, observer: str = "sign_indefinite") -> None:
+    def __init__(self, observer: str = "sign_indefinite", title: str | None = None) -> None:
         self.observer = observer
+        self.title = title
 
     def on_multirun_end(self, config, **kwargs) -> None:
         try:
-            aggregate(config.hydra.sweep.dir, observer=self.observer)
+            aggregate(config.hydra.sweep.dir, observer=self.observer, title=self.title)
         except Exception as err:  # never turn a finished sweep into a failure
             print(f"aggregate: failed ({err}); run experiments/aggregate.py "
                   f"{config.hydra.sweep.dir}", file=sys.stderr)
@@ -278,10 +308,10 @@ class SweepSummary(Callback):
     """Hydra callback (every multirun, ``conf/config.yaml``): at the end, one table of the
     jobs with their varying overrides, status and key metric, from their ``run.json``.
     At the start, the sweep's own process is set to exit quickly (a joblib sweep runs no
-    job in it; :func:`hgo.memory.skip_exit_collection`)."""
+    job in it; :func:`hgo.core.memory.skip_exit_collection`)."""
 
     def on_multirun_start(self, config, **kwargs) -> None:
-        from hgo.memory import skip_exit_collection
+        from hgo.core.memory import skip_exit_collection
 
         skip_exit_collection()
 

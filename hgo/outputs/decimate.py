@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from hgo.engine.jit import kernel_helper
-from hgo.recording import Series, write_recording
+from hgo.outputs.recording import Series, write_recording
 
 log = logging.getLogger(__name__)
 MODES = ("full", "decimated", "off")
@@ -67,7 +67,7 @@ def recording_mode(recording) -> str:
 
 def write_run_recording(recording, path: Path, t: np.ndarray, series: Sequence[Series],
                         *, text: dict[str, str], **kwargs) -> Path | None:
-    """:func:`hgo.recording.write_recording` in ``recording.mode`` (a config node with
+    """:func:`hgo.outputs.recording.write_recording` in ``recording.mode`` (a config node with
     ``mode`` and ``max_rows``; None: full). The ``/run/config`` text starts with a line
     saying how the file was reduced. Returns the path, or None when ``mode`` is off."""
     mode = recording_mode(recording)

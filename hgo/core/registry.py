@@ -1,4 +1,15 @@
-"""Claims registry: a paper's claim as data plus the one function that measures it.
+"""The paper registry: paper packages found by name, their claims and their figures.
+
+A paper package (``hgo/papers/<paper>/``) registers itself here and imports nothing above
+it: its ``config.py`` holds ``SCHEMAS`` (``"<group>/<name>"`` -> dataclass, stored in
+Hydra's ConfigStore by :func:`hgo.core.config.register_configs`), its ``claims.py``
+registers claims with :func:`claim`, its ``figures.py`` lists ``PAPER_FIGURES``
+(:class:`PaperFigure`). The packages are *discovered* (:func:`paper_names`,
+:func:`paper_modules`), as plugins are: adding a paper changes no file outside its own
+package, ``conf/`` and ``tests/``, and the layers that read the registry (configuration,
+``hgo reproduce``, the report) never import a paper.
+
+Claims: a paper's claim as data plus the one function that measures it.
 
 A claim lives in ``hgo/papers/<paper>/claims.py``::
 
@@ -22,10 +33,68 @@ the report cannot disagree.
 
 from __future__ import annotations
 
-import functools
+import importlib
+import itertools
 import math
+import pkgutil
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
+from types import ModuleType
+
+PAPERS_PACKAGE = "hgo.papers"
+
+
+def paper_names() -> list[str]:
+    """The paper packages under ``hgo.papers``, sorted."""
+    package = importlib.import_module(PAPERS_PACKAGE)
+    return sorted(m.name for m in pkgutil.iter_modules(package.__path__) if m.ispkg)
+
+
+def paper_modules(module: str) -> list[ModuleType]:
+    """``hgo.papers.<paper>.<module>`` of every paper that has one (imported by name)."""
+    found = []
+    for paper in paper_names():
+        name = f"{PAPERS_PACKAGE}.{paper}.{module}"
+        try:
+            found.append(importlib.import_module(name))
+        except ModuleNotFoundError as err:
+            if err.name != name:
+                raise
+    return found
+
+
+def paper_title(paper: str) -> str:
+    """The first line of the paper package's docstring (its citation)."""
+    doc = importlib.import_module(f"{PAPERS_PACKAGE}.{paper}").__doc__ or paper
+    return doc.strip().splitlines()[0]
+
+
+@dataclass(frozen=True)
+class PaperFigure:
+    """A preset whose run (or sweep) draws figures of a paper.
+
+    ``captions`` maps a figure file stem (``fig2`` for ``fig2.png``) to the paper's caption.
+    With ``sweep`` (key -> values) the preset runs once per combination, and ``combine``
+    (a function of the sweep directory) draws the figures of ``captions`` from the jobs;
+    without it the single run draws them.
+    """
+
+    preset: str
+    captions: dict[str, str]
+    overrides: tuple[str, ...] = ()
+    sweep: dict[str, tuple] = field(default_factory=dict)
+    combine: Callable[[Path], object] | None = None
+
+    def jobs(self) -> list[tuple[str, ...]]:
+        """The overrides of every job."""
+        base = (f"experiment={self.preset}", *self.overrides)
+        if not self.sweep:
+            return [base]
+        keys = list(self.sweep)
+        return [base + tuple(f"{k}={v}" for k, v in zip(keys, combo, strict=True))
+                for combo in itertools.product(*(self.sweep[k] for k in keys))]
+
 
 REPRODUCED = "reproduced"
 PARTLY = "partly"
@@ -97,66 +166,5 @@ def claim(*, paper: str, id: str, where: str, statement: str, verdict: str,
 def all_claims(papers: list[str] | None = None) -> list[Claim]:
     """Every registered claim of ``papers`` (default: all), importing each paper's
     ``claims`` module, in paper then definition order."""
-    from hgo.papers import paper_modules
-
     paper_modules("claims")
     return [c for c in _REGISTRY.values() if papers is None or c.paper in papers]
-
-
-@functools.lru_cache(maxsize=32)
-def run_rows(overrides: tuple[str, ...]) -> dict[tuple[str, str], float]:
-    """Compose ``overrides``, simulate and post-process (no files written); the metric
-    rows as (observer, quantity) -> empirical. Cached: claims that need the same run
-    share it. Raises if the run fails."""
-    return {(r["observer"], r["quantity"]): r["empirical"]
-            for r in run_in_memory(overrides).metrics.to_dict("records")}
-
-
-@functools.lru_cache(maxsize=8)
-def run_in_memory(overrides: tuple[str, ...]):
-    """The run of ``overrides`` without files: a :class:`hgo.runner.MemoryRun`."""
-    from hgo.runner import simulate_config
-
-    return simulate_config(compose_cached(overrides))
-
-
-def compose_cached(overrides: tuple[str, ...]):
-    """``hgo.config.compose(overrides)``, composing each set of group choices once.
-
-    Hydra's compose costs ~0.1 s, 10x a claim's typical run: an override that sets a
-    value already in the config (``key=value``, no group, no ``+``/``~``) is applied to a
-    copy of the composed base with the value as Hydra's own parser reads it; anything else
-    goes through Hydra."""
-    from hydra.core.override_parser.overrides_parser import OverridesParser
-    from omegaconf import OmegaConf, open_dict
-
-    from hgo.catalog import groups
-
-    base, values = [], []
-    parser = OverridesParser.create()
-    group_names = set(groups())
-    for text in overrides:
-        (o,) = parser.parse_overrides([text])
-        plain = (o.type.name == "CHANGE" and not o.is_sweep_override()
-                 and o.key_or_group.split("@")[0] not in group_names
-                 and "/" not in o.key_or_group)
-        if plain:
-            values.append(o)
-        else:
-            base.append(text)
-    cfg = _compose_base(tuple(base)).copy()
-    for o in values:
-        key = o.key_or_group
-        node = OmegaConf.select(cfg, key, throw_on_missing=False)
-        if node is None or OmegaConf.is_config(node):  # a group or an absent key: Hydra
-            return _compose_base(tuple(overrides)).copy()
-        with open_dict(cfg):
-            OmegaConf.update(cfg, key, o.value(), merge=False)
-    return cfg
-
-
-@functools.lru_cache(maxsize=64)
-def _compose_base(overrides: tuple[str, ...]):
-    from hgo.config import compose
-
-    return compose(list(overrides))

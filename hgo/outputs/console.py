@@ -11,7 +11,7 @@ import math
 
 import pandas as pd
 
-from hgo.metrics import verdict
+from hgo.outputs.metrics import verdict
 
 WIDTH = 100
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from hgo.config import conf_dir
+from hgo.core.config import conf_dir, groups
 
 
 def preset_description(path: Path) -> str:
@@ -17,13 +17,6 @@ def preset_description(path: Path) -> str:
         if line and not line.startswith("#"):
             break
     return ""
-
-
-def groups(root: Path | None = None) -> dict[str, list[str]]:
-    """Config group -> its options (file stems), ``experiment`` included."""
-    root = root or conf_dir()
-    return {d.name: sorted(p.stem for p in d.glob("*.yaml"))
-            for d in sorted(root.iterdir()) if d.is_dir()}
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import base64
 import html
-import importlib
 import json
 import math
 import os
@@ -25,8 +24,8 @@ from pathlib import Path
 
 import pandas as pd
 
-from hgo.claims import NOT_REPRODUCED, VERDICTS, all_claims
-from hgo.metrics import verdict
+from hgo.core.registry import NOT_REPRODUCED, VERDICTS, all_claims, paper_names, paper_title
+from hgo.outputs.metrics import verdict
 
 
 @dataclass
@@ -45,11 +44,6 @@ class Section:
     figures: list[FigureEntry] = field(default_factory=list)
     claims: list[dict] = field(default_factory=list)
     bounds: pd.DataFrame | None = None
-
-
-def paper_title(paper: str) -> str:
-    doc = importlib.import_module(f"hgo.papers.{paper}").__doc__ or paper
-    return doc.strip().splitlines()[0]
 
 
 def agreement(verdict: str, holds: bool | None) -> str:
@@ -115,7 +109,7 @@ def sections(papers: list[str], plan, claim_files: dict[str, Path]) -> list[Sect
 def provenance(wall: float) -> dict[str, str]:
     """Machine, versions and commit of this report."""
     commit = "unknown"
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     try:
         sha = subprocess.run(["git", "-C", str(root), "rev-parse", "--short", "HEAD"],
                              capture_output=True, text=True, check=True).stdout.strip()
@@ -155,8 +149,6 @@ def summary_rows(secs: list[Section]) -> list[dict]:
 
 def registry_table() -> str:
     """Markdown: per paper, its claims by declared verdict (README's "What reproduces")."""
-    from hgo.papers import paper_names
-
     rows = []
     for paper in paper_names():
         claims = all_claims([paper])

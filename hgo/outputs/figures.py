@@ -1,6 +1,6 @@
 """Figures of a run, one function per paper figure with signature ``f(result, path)``.
 
-``result`` is :class:`hgo.runner.RunResult` (``.experiment.system``, ``.trajectory``,
+``result`` is :class:`hgo.running.runner.RunResult` (``.experiment.system``, ``.trajectory``,
 ``.series`` including post-processed series, ``.metrics``); the runner calls each entry of
 the ``figures`` config mapping and writes ``<name>.<figures.format>`` in the run directory
 (``png`` by default; ``pdf``, ``svg``) at ``figures.dpi``. Matplotlib runs on its
@@ -86,8 +86,8 @@ def legend_outside(ax, below: bool = False) -> None:
 def save_figure(fig, path: str | Path) -> None:
     """Lay out ``fig``, write it to ``path`` (format from its suffix, dpi from
     ``savefig.dpi``) and close it. The file is written as ``<path>.partial`` and renamed
-    when complete (:func:`hgo.recording.atomic_output`)."""
-    from hgo.recording import atomic_output
+    when complete (:func:`hgo.outputs.recording.atomic_output`)."""
+    from hgo.outputs.recording import atomic_output
 
     fig.tight_layout()
     try:

@@ -2,7 +2,7 @@
 
     build(cfg)  -> Experiment (system, solver settings, noise model, post-processors):
                    every parameter is checked here, before any integration
-                   (:mod:`hgo.validate`, the builders, :class:`System`).
+                   (:mod:`hgo.core.validate`, the builders, :class:`System`).
     run(cfg, out_dir) -> RunResult: simulate, write ``recording.rrd`` and ``metrics.csv``;
                    a run that stops early (non-finite state, state bound) keeps everything
                    up to its stop time and is marked failed in ``metrics.csv``.
@@ -18,7 +18,7 @@ import re
 import time
 import uuid
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -28,24 +28,26 @@ from hydra.errors import InstantiationException
 from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
 
-from hgo.components import Controller, Observer, Plant
-from hgo.console import compact_table
-from hgo.decimate import check_recording, recording_mode, write_run_recording
+from hgo.core.components import Controller, Observer, Plant
+from hgo.core.errors import ConfigError
+from hgo.core.validate import check_cost as _check_sizes
+from hgo.core.validate import check_values
 from hgo.engine.jit import run_seconds
 from hgo.engine.simulate import INTERRUPTED, SolverSettings, Trajectory, check_split, simulate
 from hgo.engine.system import System
-from hgo.errors import ConfigError
-from hgo.metrics import metrics_table, status_word
 from hgo.noise import NoiseModel
+from hgo.outputs.console import compact_table
+from hgo.outputs.decimate import check_recording, recording_mode, write_run_recording
+from hgo.outputs.metrics import metrics_table, status_word
+from hgo.outputs.recording import Series, atomic_output, time_series_blueprint
+from hgo.outputs.runs import write_run_json
 from hgo.postprocess import PostOutput
-from hgo.progress import compile_progress
-from hgo.recording import Series, atomic_output, time_series_blueprint
-from hgo.runs import write_run_json
-from hgo.validate import check_cost as _check_sizes
-from hgo.validate import check_values
+from hgo.running.figures import draw_figures, figure_settings
+from hgo.running.progress import compile_progress
+from hgo.running.results import Experiment, RunResult
 
 if TYPE_CHECKING:
-    from hgo.figure_worker import FigureWorker
+    from hgo.running.figure_worker import FigureWorker
 
 log = logging.getLogger(__name__)
 
@@ -56,26 +58,6 @@ class SimulationFailed(RuntimeError):
 
 class RunInterrupted(KeyboardInterrupt):
     """Ctrl-C (SIGINT) stopped a run; its outputs up to then are written."""
-
-
-@dataclass
-class Experiment:
-    system: System
-    solver: SolverSettings
-    noise: NoiseModel
-    seed: int
-    post: dict = field(default_factory=dict)  # name -> post-processor, built and checked
-
-
-@dataclass
-class RunResult:
-    experiment: Experiment
-    trajectory: Trajectory
-    metrics: pd.DataFrame
-    out_dir: Path
-    series: list[Series]
-    # seconds: compile (numba, new kernels only), simulate (without compiling), write
-    timings: dict[str, float] = field(default_factory=dict)
 
 
 def _has_nested_target(value) -> bool:
@@ -184,7 +166,7 @@ def solver_settings(cfg: DictConfig) -> SolverSettings:
 
 def check_cost(system: System, solver: SolverSettings, noise: NoiseModel) -> None:
     """Refuse a run whose output rows, noise samples or steps, estimated now, are too many
-    (:func:`hgo.validate.check_cost`)."""
+    (:func:`hgo.core.validate.check_cost`)."""
     n_rows = int(round(solver.t_end / solver.dt_out)) + 1
     ny, nu = len(system.plant.output_names), len(system.plant.input_names)
     n_cols = system.nz + system.nd + 2 * ny + nu + system.nxh
@@ -234,7 +216,7 @@ def run_experiment(exp: Experiment) -> Trajectory:
 
 
 def signals(system: System, traj: Trajectory) -> list[Series]:
-    """Every time series of a run, under the entity paths of :mod:`hgo.recording`."""
+    """Every time series of a run, under the entity paths of :mod:`hgo.outputs.recording`."""
     plant = system.plant
     x = traj.z[:, : plant.nx]
     out = [Series("/plant/x", plant.state_names, x),
@@ -301,50 +283,11 @@ def postprocess(cfg: DictConfig, exp: Experiment, traj: Trajectory) -> PostOutpu
     return total
 
 
-FIGURE_SETTINGS = ("format", "dpi")  # keys of the ``figures`` node that are not figures
-FORMATS = ("png", "pdf", "svg")  # of ``figures.format``
-
-
 def recording_settings(cfg: DictConfig) -> None:
     """``recording.mode`` and ``recording.max_rows``, checked before any integration."""
     node = cfg.get("recording")
     if node is not None:
         check_recording(recording_mode(node), node.max_rows)
-
-
-def figure_settings(cfg: DictConfig) -> tuple[str, float]:
-    """``figures.format`` and ``figures.dpi``, checked (before any integration)."""
-    node = cfg.get("figures") or {}
-    fmt, dpi = node.get("format", "png"), node.get("dpi", 110)
-    if fmt not in FORMATS:
-        raise ValueError(f"figures.format: '{fmt}' not in {list(FORMATS)}")
-    if not (isinstance(dpi, int | float) and 10 <= dpi <= 1200):
-        raise ValueError(f"figures.dpi must be a number in [10, 1200], got {dpi}")
-    return fmt, float(dpi)
-
-
-def figure_nodes(cfg: DictConfig) -> dict:
-    """The figures of the ``figures`` mapping (name -> ``_target_`` node); a preset drops
-    an inherited figure with ``figures.<name>: null``."""
-    return {name: node for name, node in (cfg.get("figures") or {}).items()
-            if node is not None and name not in FIGURE_SETTINGS}
-
-
-def draw_figures(cfg: DictConfig, result: RunResult) -> list[Path]:
-    """Figures of the ``figures`` mapping (name -> ``_target_`` taking the result and a
-    path), written as ``<name>.<figures.format>`` at ``figures.dpi``."""
-    import matplotlib.pyplot as plt
-
-    import hgo.figures  # noqa: F401  (hgo's style and the Agg backend)
-
-    fmt, dpi = figure_settings(cfg)
-    paths = []
-    for name, node in figure_nodes(cfg).items():
-        path = result.out_dir / f"{name}.{fmt}"
-        with plt.rc_context({"savefig.dpi": dpi, "figure.dpi": dpi}):  # (see figures.STYLE)
-            instantiate(node, _partial_=True)(result, path)
-        paths.append(path)
-    return paths
 
 
 @dataclass
@@ -385,7 +328,7 @@ def run(cfg: DictConfig, out_dir: str | Path, figures: FigureWorker | None = Non
     Every file is written under ``<name>.partial`` and renamed when complete. A run that
     stopped early raises :class:`SimulationFailed`, an interrupted one (Ctrl-C)
     :class:`RunInterrupted`, both after writing what was computed. With ``figures`` (a
-    :class:`hgo.figure_worker.FigureWorker` forked for ``cfg``), the figures are drawn
+    :class:`hgo.running.figure_worker.FigureWorker` forked for ``cfg``), the figures are drawn
     there while the recording is written."""
     out_dir = Path(out_dir)
     started = datetime.now()
@@ -426,7 +369,7 @@ def run(cfg: DictConfig, out_dir: str | Path, figures: FigureWorker | None = Non
 
 def track(cfg: DictConfig, out_dir: Path, started: datetime, status: str,
           timings: dict[str, float], metrics: pd.DataFrame) -> None:
-    """``run.json``: provenance, timings, status, config and metrics (:mod:`hgo.runs`)."""
+    """``run.json``: provenance, timings, status, config and metrics (:mod:`hgo.outputs.runs`)."""
     job = OmegaConf.masked_copy(cfg, [k for k in cfg if k != "hydra"])
     write_run_json(out_dir, OmegaConf.to_container(job, resolve=True), status, started,
                    timings, metrics)

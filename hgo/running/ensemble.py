@@ -15,9 +15,9 @@ from typing import Any
 import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
+from hgo.core.errors import as_floats
 from hgo.engine.system import System
-from hgo.errors import as_floats
-from hgo.grid import expand_grid, grid_size, shard_indices
+from hgo.running.grid import expand_grid, grid_size, shard_indices
 
 
 def _layout(system: System) -> tuple:
@@ -191,10 +191,10 @@ def member_nodes(cfg: DictConfig, values: Mapping[str, Any]) -> list[Mapping]:
 
 
 def build_members(nodes: list[Mapping]) -> list[System]:
-    """:func:`hgo.runner.build_system` of every member, each component built once per
+    """:func:`hgo.running.runner.build_system` of every member, each component built once per
     distinct node object (members share their unvaried groups, :func:`member_nodes`)."""
-    from hgo.components import Controller, Observer, Plant
-    from hgo.runner import _instantiate
+    from hgo.core.components import Controller, Observer, Plant
+    from hgo.running.runner import _instantiate
 
     built: dict[int, Any] = {}
 

@@ -1,4 +1,4 @@
-"""``hgo runs``, ``hgo show <run>``, ``hgo export <run or .rrd>`` (see :mod:`hgo.runs`)."""
+"""``hgo runs``, ``hgo show <run>``, ``hgo export <run or .rrd>`` (see :mod:`hgo.outputs.runs`)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from hgo.runs import load
+from hgo.outputs.runs import load
 
 SHOWN = ["path", "run_name", "status", "started", "seconds.simulate"]
 
@@ -86,7 +86,7 @@ def compare(a: str, b: str) -> int:
 
 
 def show(argv: list[str]) -> int:
-    from hgo.console import compact_table
+    from hgo.outputs.console import compact_table
 
     parser = argparse.ArgumentParser(prog="hgo show", description="One run: status, config, "
                                      "metrics.")
@@ -110,7 +110,7 @@ def show(argv: list[str]) -> int:
 
 
 def export(argv: list[str]) -> int:
-    from hgo.recording import read_recording
+    from hgo.outputs.recording import read_recording
 
     parser = argparse.ArgumentParser(prog="hgo export", description="A recording's series as "
                                      "a table (index sim_time, one column per series).")

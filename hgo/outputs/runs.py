@@ -6,8 +6,8 @@ and end time, compile / simulate / write times, seed, status), its resolved conf
 flattened to dotted keys, and its metrics as ``<observer>/<quantity>`` -> empirical value.
 The index reads only these files, so listing 1,000 runs takes a fraction of a second::
 
-    import hgo.runs
-    df = hgo.runs.load("outputs")   # one row per run: path, status, config.*, metric.*
+    import hgo.outputs.runs
+    df = hgo.outputs.runs.load("outputs")   # one row per run: path, status, config.*, metric.*
     p2 = df["config.observer.sign_indefinite.p2"]
     df[p2 > 0.01]["metric.sign_indefinite/mean_sq_output_error"]
 
@@ -30,7 +30,7 @@ from pathlib import Path
 
 import pandas as pd
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 LIBRARIES = ("numpy", "numba", "rerun-sdk", "hydra-core", "scipy", "pandas")
 
 

@@ -11,11 +11,11 @@ import sys
 
 
 def run_app(args: list[str], prog: str = "hgo run") -> int:
-    """``hgo run``: the Hydra application (:mod:`hgo.app`) on ``args``; ``prog`` is the
+    """``hgo run``: the Hydra application (:mod:`hgo.cli.app`) on ``args``; ``prog`` is the
     command name Hydra and ``run.json`` see (``experiments/run.py`` passes its own)."""
     gc.disable()  # imports make ~1M lasting objects, no garbage: full passes cost ~0.07 s
     try:
-        from hgo.app import cli_main
+        from hgo.cli.app import cli_main
     finally:
         gc.freeze()  # (later full passes skip them too)
         gc.enable()
@@ -26,20 +26,20 @@ def run_app(args: list[str], prog: str = "hgo run") -> int:
 
 
 def _reproduce(args: list[str]) -> int:
-    from hgo.reproduce import main
+    from hgo.reproduce.run import main
 
     return main(args)
 
 
 def _list(args: list[str]) -> int:
-    from hgo.catalog import main
+    from hgo.cli.catalog import main
 
     return main(args)
 
 
 def _runs_command(name: str):
     def command(args: list[str]) -> int:
-        from hgo import runs_cli
+        from hgo.cli import runs as runs_cli
 
         return getattr(runs_cli, name)(args)
 

@@ -1,4 +1,4 @@
-"""Checks of a composed config before any integration (:func:`hgo.runner.build` calls them).
+"""Checks of a composed config before any integration (:func:`hgo.running.runner.build` calls them).
 
 * :func:`check_values`: every numeric value of the config is a number (no NaN), finite
   unless its key means "no limit" when infinite (``INF_ALLOWED``), and the top-level keys
@@ -21,7 +21,7 @@ from collections.abc import Mapping
 
 from omegaconf import DictConfig, OmegaConf
 
-from hgo.errors import ConfigError
+from hgo.core.errors import ConfigError
 
 #: Leaf keys where ``inf`` is meaningful ("no limit"): they may be infinite, never NaN.
 INF_ALLOWED = {"u_max", "saturation", "state_bound", "h_max"}

@@ -33,7 +33,7 @@ from typing import Any
 
 from omegaconf import DictConfig
 
-from hgo.errors import one_line
+from hgo.core.errors import one_line
 
 
 def _read_all(fd: int) -> bytes:
@@ -88,8 +88,8 @@ def _serve(cfg: DictConfig, request_fd: int, reply_fd: int) -> None:
     """The child: import, wait for the result, draw, reply ``("ok", paths)`` or
     ``("error", exception)``. EOF instead of a request (the run stopped): draw nothing."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    import hgo.figures  # noqa: F401  (matplotlib with hgo's style, while the parent runs)
-    from hgo.runner import draw_figures
+    import hgo.outputs.figures  # noqa: F401  (matplotlib with hgo's style, while the parent runs)
+    from hgo.running.figures import draw_figures
 
     gc.freeze()  # the collector skips the modules' objects while drawing (0.1 s a figure)
     _warm_up()
@@ -105,7 +105,7 @@ def _serve(cfg: DictConfig, request_fd: int, reply_fd: int) -> None:
 
 class FigureWorker:
     """A forked process that draws the figures of ``cfg`` for one
-    :class:`hgo.runner.RunResult` (:meth:`submit`, then :meth:`collect`)."""
+    :class:`hgo.running.runner.RunResult` (:meth:`submit`, then :meth:`collect`)."""
 
     def __init__(self, cfg: DictConfig) -> None:
         request_r, self._request_w = os.pipe()
@@ -180,7 +180,7 @@ class FigureWorker:
 def figures_aside(cfg: DictConfig) -> Iterator[FigureWorker | None]:
     """A :class:`FigureWorker` for ``cfg``'s figures, ended on leaving; None where there
     are no figures or no ``fork``."""
-    from hgo.runner import figure_nodes
+    from hgo.running.figures import figure_nodes
 
     if not (FigureWorker.available() and figure_nodes(cfg)):
         yield None

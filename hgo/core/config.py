@@ -17,7 +17,7 @@ from typing import Any
 from hydra.core.config_store import ConfigStore
 from omegaconf import DictConfig, open_dict
 
-from hgo.papers import paper_modules
+from hgo.core.registry import paper_modules
 
 
 @dataclass
@@ -90,7 +90,7 @@ class EnsembleConf:
     [[low, high], ...] (vector), drawn uniformly with ``seed``; ``grid``: dotted key ->
     value list (Cartesian product, ``size`` replicates per point); ``shard``: "i/N" runs
     the i-th of N blocks of the members; ``reports``: name -> ``_target_`` of
-    ``f(result, out_dir)`` (see :mod:`hgo.ensemble_runner`)."""
+    ``f(result, out_dir)`` (see :mod:`hgo.running.ensemble_runner`)."""
 
     size: int = 0
     seed: int = 0
@@ -110,7 +110,7 @@ class RecordingMode(Enum):
 class RecordingConf:
     """``mode`` in {full, decimated, off} (checked when Hydra composes); ``max_rows``
     (decimated): at most this many rows, the min/max envelope per bucket
-    (:mod:`hgo.decimate`)."""
+    (:mod:`hgo.outputs.decimate`)."""
 
     mode: RecordingMode = RecordingMode.full
     max_rows: int = 16384
@@ -134,7 +134,14 @@ def register_configs() -> None:
 
 def conf_dir() -> Path:
     """The ``conf/`` directory of the repository hgo runs from."""
-    return Path(__file__).resolve().parents[1] / "conf"
+    return Path(__file__).resolve().parents[2] / "conf"
+
+
+def groups(root: Path | None = None) -> dict[str, list[str]]:
+    """Config group -> its options (file stems), ``experiment`` included."""
+    root = root or conf_dir()
+    return {d.name: sorted(p.stem for p in d.glob("*.yaml"))
+            for d in sorted(root.iterdir()) if d.is_dir()}
 
 
 def compose(overrides: list[str], out_dir: Path | None = None) -> DictConfig:

@@ -34,10 +34,10 @@ from hgo.controllers.profile_input import input_period
 from hgo.engine.simulate import Trajectory
 from hgo.engine.system import System
 from hgo.observers.circle_criterion import CircleCriterionObserver
-from hgo.papers.moreno.sector import sector_lower
+from hgo.outputs.recording import Series
 from hgo.papers.moreno.theory import CertificateDesign, ErrorSystem, certificate_design
+from hgo.plants.sector import sector_lower
 from hgo.postprocess import PostOutput
-from hgo.recording import Series
 
 NORM_TIMES = (1.0, 5.0, 10.0, 20.0, 40.0)
 DEFAULT_WINDOW = 5.0  # Delta of Remark 6.3 for a non-periodic input (s)

@@ -41,20 +41,24 @@ from hgo.engine.jit import kernel_helper
 from hgo.engine.simulate import Trajectory
 from hgo.engine.system import System
 from hgo.observers import homogeneous_dynamic as hd
+from hgo.outputs.recording import Series
 from hgo.plants.contois import clip, df2_dx2, reaction_rate, x2_high, x2_low
 from hgo.postprocess import PostOutput
-from hgo.recording import Series
 
 RATE = "/apa/rate"
 
 
+def omega_series(p, u, y, xh2, out) -> None:
+    """Omega of an observer with (Contois) parameters p along (u, y, x^2) samples (its f's
+    Omega), into ``out``."""
+    _omega_series(p.kind, p.q, p.hbar, p.eps1, p.eps2, p.df2max, u, y, xh2, out)
+
+
 @kernel_helper
-def omega_series(p, u, y, xh2, out):
-    """Omega of an observer with parameters p along (u, y, x^2) samples (its f's Omega)."""
-    hbar, eps1, eps2 = p[9], p[10], p[11]
+def _omega_series(kind, q, hbar, eps1, eps2, dfmax, u, y, xh2, out):
     for k in range(out.shape[0]):
         ys = clip(y[k], eps1, 1.0 - eps2)
-        out[k] = hd.omega_now(int(p[6]), u[k], ys, xh2[k], p[0], hbar, eps2, p[12])
+        out[k] = hd.omega_now(kind, u[k], ys, xh2[k], q, hbar, eps2, dfmax)
 
 
 @kernel_helper
@@ -95,7 +99,8 @@ def settling(t: np.ndarray, e: np.ndarray, thr: float, span: Sequence[float]) ->
 
 
 def is_apa_observer(obs) -> bool:
-    return getattr(obs.f, "__module__", "") == hd.__name__
+    """The observer (7)-(8) on the Contois model (the rates below are that model's)."""
+    return obs.f is hd.f and obs.p.model is hd.contois_model
 
 
 @dataclass
@@ -122,7 +127,7 @@ class APAMetrics:
                 continue
             if "model" not in rates:  # the observers' hbar_o (the first one's)
                 rates["model"] = np.empty_like(t)
-                rate_series(eta1, eta2, u, float(obs.p[9]), rates["model"])
+                rate_series(eta1, eta2, u, obs.p.hbar, rates["model"])
             series, obs_rows = self._observer(obs, t, u, y, traj.z[:, za:za + 3],
                                               traj.xh[:, xa + 1] - eta2, x2_true)
             out.series += series
@@ -154,14 +159,14 @@ class APAMetrics:
                                                        self.transient)
         vals.update(L0=L[0], L_end=L[-1], min_L=L.min(), max_L=L.max(),
                     mean_Omega=omega.mean())
-        hbar, eps1, eps2 = p[9], p[10], p[11]
+        hbar, eps1, eps2 = p.hbar, p.eps1, p.eps2
         ys = np.clip(y, eps1, 1.0 - eps2)
         vals["share_sat_high"] = np.mean(xh2 > x2_high(ys, hbar))  # (array arguments)
         vals["share_sat_low"] = np.mean(xh2 < x2_low(ys, eps2, hbar))
-        vals.update(eps1=eps1, eps2=eps2, df2max=p[12])
+        vals.update(eps1=eps1, eps2=eps2, df2max=p.df2max)
         rows = [{"observer": name, "quantity": q, "empirical": float(v)} for q, v in vals.items()]
-        if int(p[6]) in (0, 1):  # Omega <= df2max: L <= max(L(0), equilibrium at df2max)
-            bound = max(L[0], p[3] + p[4] / p[2] * p[12])
+        if p.kind in (0, 1):  # Omega <= df2max: L <= max(L(0), equilibrium at df2max)
+            bound = max(L[0], p.phi2 + p.phi3 / p.phi1 * p.df2max)
             rows[[r["quantity"] for r in rows].index("max_L")]["bound"] = bound
         series = [Series(f"/observer/{name}/Omega", ["Omega"], omega[:, None]),
                   Series(f"/observer/{name}/e_x2", ["e_x2"], e_x2[:, None])]

@@ -2,7 +2,7 @@
 
 Each paper package declares the runs that draw its figures (``PAPER_FIGURES`` in
 ``hgo/papers/<paper>/figures.py``, a list of :class:`PaperFigure`) and its claims
-(``hgo/papers/<paper>/claims.py``, :mod:`hgo.claims`). This module
+(``hgo/papers/<paper>/claims.py``, :mod:`hgo.core.registry`). This module
 
 1. runs every figure job (a preset, or each job of its sweep) and every paper's claims in
    parallel processes;
@@ -22,46 +22,20 @@ from __future__ import annotations
 import argparse
 import hashlib
 import importlib
-import itertools
 import json
 import multiprocessing
 import os
 import sys
 import time
 import traceback
-from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor, as_completed
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+from hgo.core.registry import PAPERS_PACKAGE, PaperFigure, paper_names
 
-
-@dataclass(frozen=True)
-class PaperFigure:
-    """A preset whose run (or sweep) draws figures of a paper.
-
-    ``captions`` maps a figure file stem (``fig2`` for ``fig2.png``) to the paper's caption.
-    With ``sweep`` (key -> values) the preset runs once per combination, and ``combine``
-    (a function of the sweep directory) draws the figures of ``captions`` from the jobs;
-    without it the single run draws them.
-    """
-
-    preset: str
-    captions: dict[str, str]
-    overrides: tuple[str, ...] = ()
-    sweep: dict[str, tuple] = field(default_factory=dict)
-    combine: Callable[[Path], object] | None = None
-
-    def jobs(self) -> list[tuple[str, ...]]:
-        """The overrides of every job."""
-        base = (f"experiment={self.preset}", *self.overrides)
-        if not self.sweep:
-            return [base]
-        keys = list(self.sweep)
-        return [base + tuple(f"{k}={v}" for k, v in zip(keys, combo, strict=True))
-                for combo in itertools.product(*(self.sweep[k] for k in keys))]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 # ------------------------------------------------------------------------------ keys
@@ -78,8 +52,8 @@ def code_fingerprint() -> str:
 
 def job_key(overrides: tuple[str, ...], fingerprint: str) -> str:
     """Hash of the composed config of ``overrides`` and the code fingerprint."""
-    from hgo.claims import compose_cached
-    from hgo.runner import job_config_yaml
+    from hgo.running.in_memory import compose_cached
+    from hgo.running.runner import job_config_yaml
 
     text = job_config_yaml(compose_cached(tuple(overrides)))
     return hashlib.sha256((text + fingerprint).encode()).hexdigest()[:16]
@@ -98,8 +72,8 @@ def run_job(overrides: tuple[str, ...], job_dir: str, key: str) -> dict:
     """One figure job into ``job_dir`` (Hydra's ``.hydra/`` files written too)."""
     import yaml
 
-    from hgo.claims import compose_cached
-    from hgo.runner import job_config_yaml, run
+    from hgo.running.in_memory import compose_cached
+    from hgo.running.runner import job_config_yaml, run
 
     _silence_logs()
     out = Path(job_dir)
@@ -121,7 +95,7 @@ def run_job(overrides: tuple[str, ...], job_dir: str, key: str) -> dict:
 
 def run_claims(paper: str, path: str) -> dict:
     """Every claim of ``paper``, measured; saved to ``path`` as JSON."""
-    from hgo.claims import all_claims
+    from hgo.core.registry import all_claims
 
     _silence_logs()
     results = {}
@@ -159,7 +133,7 @@ class Job:
 
 def paper_figures(paper: str) -> list[PaperFigure]:
     try:
-        module = importlib.import_module(f"hgo.papers.{paper}.figures")
+        module = importlib.import_module(f"{PAPERS_PACKAGE}.{paper}.figures")
     except ModuleNotFoundError:
         return []
     return list(getattr(module, "PAPER_FIGURES", []))
@@ -191,7 +165,7 @@ def _progress(k: int, n: int, text: str, t0: float) -> None:
 
 def reproduce(papers: list[str], jobs: int, root: Path) -> Path:
     """Run everything of ``papers`` with ``jobs`` processes; return the report directory."""
-    from hgo.claims import all_claims
+    from hgo.core.registry import all_claims
 
     t0 = time.perf_counter()
     fingerprint = code_fingerprint()
@@ -220,7 +194,7 @@ def reproduce(papers: list[str], jobs: int, root: Path) -> Path:
                 status = f"crashed: {err!r}"
             _progress(k, n, f"{futures[fut]} -> {status}", t0)
     _combine(plan)
-    from hgo.report import write_report
+    from hgo.reproduce.report import write_report
 
     out = root / datetime.now().strftime("%Y-%m-%d_%H-%M-%S")
     write_report(out, papers, plan, claim_files, time.perf_counter() - t0)
@@ -248,8 +222,6 @@ def _combine(plan: list[Job]) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from hgo.papers import paper_names
-
     known = paper_names()
     parser = argparse.ArgumentParser(prog="hgo reproduce", description=__doc__.split("\n")[0])
     parser.add_argument("papers", nargs="*", metavar="paper",
@@ -263,7 +235,7 @@ def main(argv: list[str] | None = None) -> int:
                              "registry, no runs) and exit")
     args = parser.parse_args(argv)
     if args.table:
-        from hgo.report import registry_table
+        from hgo.reproduce.report import registry_table
 
         print(registry_table(), end="")
         return 0

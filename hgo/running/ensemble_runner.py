@@ -1,6 +1,6 @@
 """An ensemble experiment from a Hydra config: many members in one compiled call.
 
-Members (:func:`hgo.ensemble.plan_members`) are the points of ``ensemble.grid`` (dotted
+Members (:func:`hgo.running.ensemble.plan_members`) are the points of ``ensemble.grid`` (dotted
 keys -> value lists, Cartesian product) times ``ensemble.size`` replicates that differ by
 the values drawn for ``ensemble.vary`` (dotted keys -> uniform ranges) and by their noise
 seed (replicate j uses ``seed + j``: without a grid, member i is the run of seed + i; a
@@ -36,32 +36,33 @@ import pandas as pd
 from hydra.utils import instantiate
 from omegaconf import DictConfig
 
-from hgo.console import ensemble_table
-from hgo.decimate import recording_mode, write_run_recording
+from hgo.core.errors import ConfigError
+from hgo.core.validate import check_values
 from hgo.engine.jit import run_seconds
 from hgo.engine.simulate import INTERRUPTED, rho_const, simulate, simulate_ensemble
 from hgo.engine.system import System
-from hgo.ensemble import (
+from hgo.noise import NoiseModel
+from hgo.outputs.console import ensemble_table
+from hgo.outputs.decimate import recording_mode, write_run_recording
+from hgo.outputs.metrics import metric_rows
+from hgo.outputs.recording import atomic_output
+from hgo.postprocess import PostOutput
+from hgo.running.ensemble import (
     build_members,
     member_nodes,
     plain_value,
     plan_members,
     stack_members,
 )
-from hgo.errors import ConfigError
-from hgo.metrics import metric_rows
-from hgo.noise import NoiseModel
-from hgo.postprocess import PostOutput
-from hgo.progress import bar
-from hgo.recording import atomic_output
-from hgo.runner import (
+from hgo.running.figures import figure_nodes
+from hgo.running.progress import bar
+from hgo.running.runner import (
     RunInterrupted,
     _construct,
     _instantiate,
     blueprint,
     build_system,
     check_cost,
-    figure_nodes,
     job_config_yaml,
     recording_id,
     signals,
@@ -69,7 +70,6 @@ from hgo.runner import (
     status_text,
     track,
 )
-from hgo.validate import check_values
 
 log = logging.getLogger(__name__)
 CHUNKS = 10  # progress is reported after each tenth of the members
@@ -84,7 +84,7 @@ class EnsembleResult:
     t_stop: np.ndarray
     metrics: pd.DataFrame
     trajectories: list | None = None  # per member, when post-processed
-    nodes: list | None = None  # per member: its config groups (hgo.ensemble.GROUPS)
+    nodes: list | None = None  # per member: its config groups (hgo.running.ensemble.GROUPS)
     index: np.ndarray | None = None  # per member: its index in the unsharded ensemble
 
 
@@ -212,7 +212,7 @@ def _record_member0(cfg, out_dir, systems, solver, noise, size, post, first) -> 
 class EnsemblePlan:
     """An ensemble planned, built and checked, not yet integrated."""
 
-    plan: object  # hgo.ensemble.MemberPlan
+    plan: object  # hgo.running.ensemble.MemberPlan
     nodes: list
     systems: list[System]
     solver: object
@@ -282,7 +282,7 @@ def run_ensemble(cfg: DictConfig, out_dir: str | Path) -> EnsembleResult:
                             posts[0] if posts else PostOutput(),
                             out["trajectories"][0] if record else None)
     if int(cfg.ensemble.size) > 1:  # a distribution of replicates (a grid has its reports)
-        from hgo.figures.ensemble import metric_histograms  # (matplotlib: only when drawn)
+        from hgo.outputs.ensemble_figures import metric_histograms  # (matplotlib: only when drawn)
 
         metric_histograms(members, out_dir / "ensemble.png")
     n_failed = int((out["status"] != 0).sum())

@@ -1,7 +1,7 @@
 """One Hydra job of ``experiments/run.py``, with errors as one line on stderr.
 
 :func:`run_job` runs a composed config (a single run or an ensemble) into its run
-directory; an error becomes ``error: <one line>`` (:func:`hgo.errors.one_line`) and an
+directory; an error becomes ``error: <one line>`` (:func:`hgo.core.errors.one_line`) and an
 exit code: 2 for a configuration error (its run directory, holding nothing but Hydra's
 own files, is removed), 1 for a run that failed, 130 for an interrupted one. The other
 jobs of a multirun still run. :func:`one_line_errors` gives Hydra's own errors
@@ -22,8 +22,8 @@ from pathlib import Path
 
 from omegaconf import DictConfig, OmegaConf
 
-from hgo.errors import is_config_error, one_line
-from hgo.memory import release_freed_memory, skip_exit_collection
+from hgo.core.errors import is_config_error, one_line
+from hgo.core.memory import release_freed_memory, skip_exit_collection
 
 log = logging.getLogger(__name__)
 EXIT_CONFIG, EXIT_FAILED, EXIT_INTERRUPTED = 2, 1, 130
@@ -57,8 +57,8 @@ def remove_if_empty(out_dir: str | Path) -> None:
 
 def check_config(cfg: DictConfig) -> None:
     """Everything a run checks before integrating, without integrating (build-only)."""
-    from hgo.ensemble_runner import is_ensemble, prepare_ensemble
-    from hgo.runner import build
+    from hgo.running.ensemble_runner import is_ensemble, prepare_ensemble
+    from hgo.running.runner import build
 
     if is_ensemble(cfg):
         prepare_ensemble(cfg)
@@ -71,7 +71,7 @@ DONE = ".hgo_done"  # written last into a run directory: the hash of the job's c
 
 def config_hash(cfg: DictConfig) -> str:
     """Hash of the composed job config (without Hydra's node and ``resume``), resolved."""
-    from hgo.runner import job_config_yaml
+    from hgo.running.runner import job_config_yaml
 
     job = OmegaConf.create({k: cfg._get_node(k) for k in cfg if k not in ("hydra", "resume")})
     return hashlib.sha256(job_config_yaml(job).encode()).hexdigest()
@@ -91,7 +91,7 @@ def is_complete(cfg: DictConfig, out_dir: str | Path) -> bool:
 def mark_complete(cfg: DictConfig, out_dir: str | Path) -> None:
     """Record that ``out_dir`` holds the complete outputs of ``cfg`` (the config's hash and
     the files written, not Hydra's); atomic, written last."""
-    from hgo.recording import atomic_output
+    from hgo.outputs.recording import atomic_output
 
     out_dir = Path(out_dir)
     files = sorted(p.name for p in out_dir.iterdir() if p.is_file() and p.suffix != ".log"
@@ -108,10 +108,10 @@ def run_job(cfg: DictConfig, out_dir: str | Path, figures_aside: bool = False) -
     ``resume=true``: a job whose directory already holds the complete outputs of the same
     composed config (:func:`is_complete`) is skipped; any other is run (again).
     ``figures_aside``: a single run draws its figures in a forked process
-    (:mod:`hgo.figure_worker`); for the one run of a process."""
-    from hgo.ensemble_runner import is_ensemble, run_ensemble
-    from hgo.figure_worker import figures_aside as worker
-    from hgo.runner import SimulationFailed, run
+    (:mod:`hgo.running.figure_worker`); for the one run of a process."""
+    from hgo.running.ensemble_runner import is_ensemble, run_ensemble
+    from hgo.running.figure_worker import figures_aside as worker
+    from hgo.running.runner import SimulationFailed, run
 
     skip_exit_collection()  # this process (a sweep, a joblib worker) exits in ~0.2 s
     if cfg.get("resume", False) and is_complete(cfg, out_dir):

@@ -8,7 +8,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from hgo.figures import save_figure
+from hgo.outputs.figures import save_figure
 
 
 def metric_histograms(members: pd.DataFrame, path: Path) -> Path:

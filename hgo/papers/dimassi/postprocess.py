@@ -47,8 +47,9 @@ import numpy as np
 from hgo.engine.simulate import SolverSettings, Trajectory, no_noise, simulate
 from hgo.engine.system import System
 from hgo.observers import adaptive_cascade as ac
+from hgo.outputs.recording import Series
+from hgo.plants.robot_arm import dimassi_psi
 from hgo.postprocess import PostOutput
-from hgo.recording import Series
 
 
 def settle_time(t: np.ndarray, err: np.ndarray, band: float) -> float:
@@ -70,24 +71,24 @@ def _trapz_rms(t: np.ndarray, v: np.ndarray) -> float:
     return float(math.sqrt(np.trapezoid(v * v, t) / (t[-1] - t[0])))
 
 
-def psi_rows(model: str, xa: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """psi(x^a, u) on a grid, shape (len, m, q) (robot_arm: [u, -sin x1])."""
-    if model == "robot_arm":
-        return np.stack([u, -np.sin(xa[:, 0])], axis=1)[:, None, :]
-    raise ValueError(f"postprocess dhlm: no regressor for model '{model}'")
+def psi_rows(p, xa: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """psi(x^a, u) of the observer with parameters ``p`` on a grid (rows of xa, u: the
+    plant's inputs), shape (len, m, q) (robot_arm: [u, -sin x1], vectorised)."""
+    if p.psi is dimassi_psi:
+        return np.stack([u[:, 0], -np.sin(xa[:, 0])], axis=1)[:, None, :]
+    out = np.empty((len(xa), p.m, p.q))
+    for k in range(len(xa)):  # the user's psi, one sample at a time
+        p.psi(np.ascontiguousarray(xa[k]), np.ascontiguousarray(u[k]), out[k])
+    return out
 
 
-def lipschitz_psi_theta(model: str, theta: np.ndarray) -> float:
+def lipschitz_psi_theta(p, theta: np.ndarray) -> float:
     """Lipschitz constant of x -> psi(x, u) theta (tighter than K_psi |theta|, A7);
-    robot_arm: psi theta = theta1 u - theta2 sin x1, so |theta2|."""
-    if model == "robot_arm":
+    robot_arm: psi theta = theta1 u - theta2 sin x1, so |theta2|; a user's psi: K_psi
+    |theta|."""
+    if p.psi is dimassi_psi:
         return float(abs(theta[1]))
-    raise ValueError(f"postprocess dhlm: no Lipschitz constant for model '{model}'")
-
-
-def model_name(p: np.ndarray) -> str:
-    mid = int(p[13])
-    return next(k for k, v in ac.MODELS.items() if v[0] == mid)
+    return float(p.K_psi * np.linalg.norm(theta))
 
 
 def quasi_static_lag(gamma: np.ndarray, eps: float) -> np.ndarray:
@@ -305,9 +306,7 @@ class DHLMMetrics:
         from hgo.papers.dimassi import theory
 
         A, B, H, L, M = blk["A"], blk["B"], blk["H"], blk["L"], blk["M"]
-        model = model_name(obs.p)
-        _, _, _, K_phi, K_psi_model = ac.MODELS[model]
-        K_psi = K_psi_model if blk["psi_at"] > 0.5 else 0.0
+        K_phi, K_psi = blk["K_phi"], (blk["K_psi"] if blk["psi_at"] > 0.5 else 0.0)
         chk = theory.check_conditions(A, B, H, L, M)
         rows = [("r_star", chk.r_star, None),
                 ("r_star_M_free", theory.check_conditions(A, B, H, L).r_star, None),
@@ -318,11 +317,11 @@ class DHLMMetrics:
         if chk.P is None:
             return rows + [("margin10", math.nan, None)]
         nB = float(np.linalg.norm(B, 2))
-        tight = lipschitz_psi_theta(model, theta) if K_psi > 0 else 0.0
+        tight = lipschitz_psi_theta(obs.p, theta) if K_psi > 0 else 0.0
         rows += [("P11", float(chk.P[0, 0]), None),
                  ("margin10", chk.margin10(nB, K_phi, K_psi * np.linalg.norm(theta)), None),
                  ("margin10_tight", chk.margin10(nB, K_phi, tight), None)]
-        psi = psi_rows(model, x, traj.u[:, 0])
+        psi = psi_rows(obs.p, x, traj.u)
         psi_max = float(np.max(np.linalg.norm(psi.reshape(len(psi), -1), axis=1)))
         u_max = float(np.max(np.abs(traj.u)))
         rows += [("u_max", u_max, None), ("psi_max_bound", float(np.hypot(1.0, u_max)), None)]
@@ -350,7 +349,8 @@ def dhlm_metrics(window_start: float = 10.0, T_eps_factor: float = 25.0, peak_ba
                  state_bands: list[float] | None = None, theta_pcts: list[float] | None = None,
                  theta: list[float] | None = None, theory: bool = True,
                  beta: str = "measured") -> DHLMMetrics:
-    """Factory of the ``postprocess`` group (``_target_: hgo.postprocess.dhlm.dhlm_metrics``)."""
+    """Factory of the ``postprocess`` group
+    (``_target_: hgo.papers.dimassi.postprocess.dhlm_metrics``)."""
     return DHLMMetrics(float(window_start), float(T_eps_factor), float(peak_band),
                        list(state_bands or [0.2, 0.05, 0.01]),
                        list(theta_pcts or [1.0, 5.0, 10.0, 25.0]),

@@ -41,9 +41,11 @@ vector fields stay smooth and compilable.
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 import numbers
+from collections import namedtuple
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
@@ -106,6 +108,12 @@ class Params:
             return float(vector[o])
         return np.asarray(vector)[o:o + math.prod(shape)].reshape(shape)
 
+    def record(self, vector: np.ndarray):
+        """All parameters read from ``vector`` once, as a namedtuple (fast attribute
+        access for plain-Python loops; the kernel builds the same record)."""
+        names = (*self.names, *self.constants)
+        return _record_class(names)(*(self.get(vector, k) for k in names))
+
     def __repr__(self) -> str:
         shapes = ", ".join(f"{n}{list(s) if s else ''}" for n, s in
                            zip(self.names, self.shapes, strict=True))
@@ -129,8 +137,17 @@ class ParamVector(np.ndarray):
             raise AttributeError(name)
         return spec.get(self, name)
 
+    def record(self):
+        """Every named parameter read once (:meth:`Params.record`)."""
+        return self.spec.record(self)
+
     def __reduce__(self):  # pickled (sent to a process) as a plain vector + its names
         return (_param_vector, (np.asarray(self), self.spec))
+
+
+@functools.cache
+def _record_class(names: tuple[str, ...]) -> type:
+    return namedtuple("Record", names)
 
 
 def _param_vector(values: np.ndarray, spec: Params | None) -> ParamVector:
@@ -161,6 +178,18 @@ def _constant(name: str, value) -> Constant:
             return tuple(items)
     raise ValueError(f"constant {name}: {value!r} is not a number, flag, tuple of numbers "
                      "or function")
+
+
+def user_function(key: str, value: object) -> Callable:
+    """A user's function given for config key ``key``: a callable, or what Hydra makes
+    of ``{_target_: module.function, _partial_: true}`` (a partial without arguments).
+    Raises ValueError naming the key otherwise."""
+    if isinstance(value, functools.partial) and not value.args and not value.keywords:
+        value = value.func
+    if not callable(value):
+        raise ValueError(f"{key} must be a function (or {{_target_: module.function, "
+                         f"_partial_: true}}), got {value!r}")
+    return value
 
 
 class Named:
