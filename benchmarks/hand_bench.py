@@ -105,8 +105,8 @@ def case_b() -> tuple:
 
 
 def case_paper(overrides: list[str], kernel, z0: np.ndarray) -> tuple:
-    from hgo.config import compose
-    from hgo.runner import build, run_experiment
+    from hgo.core.config import compose
+    from hgo.running.runner import build, run_experiment
 
     exp = build(compose(overrides))
     s = exp.solver
@@ -129,8 +129,8 @@ def case_apa() -> tuple:
     """apa_fig2: hgo integrates the three observers apart (solver.split_observers), each
     with its own copy of the plant; the hand kernels the same, one after the other. The
     difference is the largest over the observers' states and the plant's copies."""
-    from hgo.config import compose
-    from hgo.runner import build, run_experiment
+    from hgo.core.config import compose
+    from hgo.running.runner import build, run_experiment
 
     exp = build(compose(APA))
     s = exp.solver
@@ -159,8 +159,8 @@ def member_build_ms(n: int = GRID_N) -> tuple[float, int]:
     """CPU ms per member of preparing the ``n`` x ``n`` grid ensemble (median of 3)."""
     from sweeps_bench import sp_grid_override
 
-    from hgo.config import compose
-    from hgo.ensemble_runner import prepare_ensemble
+    from hgo.core.config import compose
+    from hgo.running.ensemble_runner import prepare_ensemble
 
     with tempfile.TemporaryDirectory() as tmp:
         cfg = compose(["experiment=sp_ensemble", "ensemble.size=0", sp_grid_override(n)],

@@ -40,7 +40,6 @@ WP_RTOLS_IVP = (1e-6, 1e-7, 1e-9)
 B_T, B_DT = 200.0, 0.01
 A_T, A_NOISE_DT, A_DT_OUT, A_NOISE = 20.0, 0.0008, 0.004, 0.0016
 A_SWITCH = 1.0
-P2_INDEX = 2 + 3  # params: plant [nu1, nu2], observer [n, law, p1, p2, ...]
 
 
 # ---------------------------------------------------------------------- problem B
@@ -72,9 +71,14 @@ def ensemble_members(n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
     return rng.uniform(0.5, 3.0, n), rng.uniform(-3.0, 3.0, (n, 2))
 
 
+def p2_index(system: System) -> int:
+    """Where the observer's p2 lies in the system's parameter vector (by name)."""
+    return system.p_slices[1][0] + system.observers[0].params.index("p2")
+
+
 def ensemble_inputs(system: System, p2: np.ndarray, e0: np.ndarray):
     params = np.tile(system.params(), (len(p2), 1))
-    params[:, P2_INDEX] = p2
+    params[:, p2_index(system)] = p2
     z0 = np.tile(system.z0(), (len(p2), 1))
     z0[:, 2:4] = e0
     return params, z0

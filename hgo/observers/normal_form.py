@@ -52,7 +52,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from hgo.components import Observer, Params
+from hgo.core.components import Observer, Params
 
 
 def zero_phi0(x, u, p):  # noqa: ARG001 - the signature of phi0

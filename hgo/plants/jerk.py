@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from hgo.components import Plant
+from hgo.core.components import Plant
 from hgo.plants.normal_form import normal_form_plant
 
 

@@ -13,7 +13,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from hgo.components import Params, Plant
+from hgo.core.components import Params, Plant
 
 
 def f(t, x, u, p, dx):

@@ -18,9 +18,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from hgo.core.errors import ConfigError
 from hgo.engine.simulate import Trajectory
 from hgo.engine.system import System
-from hgo.errors import ConfigError
 from hgo.postprocess import PostOutput
 from hgo.postprocess.oscillation import window_slice
 

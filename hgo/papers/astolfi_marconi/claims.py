@@ -9,8 +9,9 @@ x^(0) = 0 with the plant's phi0 as model, gain ell = 1/eps, default gains (alpha
 
 from __future__ import annotations
 
-from hgo.claims import REPRODUCED, Measured, claim, run_rows
+from hgo.core.registry import REPRODUCED, Measured, claim
 from hgo.papers.astolfi_marconi.theory import local_slopes, loglog_slope
+from hgo.running.in_memory import run_rows
 
 PAPER = "astolfi_marconi"
 ELLS = (10.0, 20.0, 40.0, 80.0, 160.0)

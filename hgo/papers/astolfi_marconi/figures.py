@@ -19,7 +19,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from hgo.figures import legend_outside, save_figure
+from hgo.outputs.figures import legend_outside, save_figure
 from hgo.papers.astolfi_marconi.theory import local_slopes, loglog_slope
 
 ELL_KEY, NOISE_KEY = "observer.standard.ell", "noise.std"
