@@ -40,8 +40,8 @@ real parts; the low-power observer's linear error system (phi0 = 0) Hurwitz at t
 ell and K_i (:func:`lowpower_error_matrix`). Its default gains (:func:`lowpower_default_gains`)
 give block i its own characteristic polynomial (s + c_i)^2 with c_i = 2^(n-1-i), the block
 nearest the measurement the fastest: the error system is then Hurwitz for n = 2..8 (largest
-real part -0.30 ell .. -1.0 ell); equal gains in every block are not, from n = 4 on (e.g.
-K_i = (2, 1): +0.099 ell at n = 4).
+real part between -0.23 ell (n = 4) and -1.0 ell (n = 2)); equal gains in every block are
+not, from n = 4 on (e.g. K_i = (2, 1): +0.099 ell at n = 4).
 """
 
 from __future__ import annotations
