@@ -181,3 +181,10 @@ def test_user_phi0_numba_cannot_compile_runs_in_python_with_one_warning() -> Non
         "s", 2, eps=0.1, phi0=__import__("hgo.plants.van_der_pol", fromlist=["phi0"]).phi0,
         model={"mu": 1.0})]), solver, no_noise(1))
     np.testing.assert_allclose(traj.xh, ref.xh, rtol=1e-9, atol=1e-12)
+
+
+def test_readme_shows_the_whole_tutorial_files() -> None:
+    readme = (ROOT / "README.md").read_text()
+    for path in ("examples/vdp/vdp.py", "examples/vdp/mine/experiment/vdp.yaml"):
+        assert (ROOT / path).read_text() in readme, path
+    assert len((ROOT / "examples/vdp/vdp.py").read_text().splitlines()) <= 30

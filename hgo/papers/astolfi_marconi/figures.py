@@ -19,7 +19,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from hgo.outputs.figures import legend_outside, save_figure
+from hgo.outputs.figures import save_figure
 from hgo.papers.astolfi_marconi.theory import local_slopes, loglog_slope
 
 ELL_KEY, NOISE_KEY = "observer.standard.ell", "noise.std"
@@ -62,7 +62,7 @@ def _estimates_panel(ax, result, ell: float, noise: float) -> None:
     ax.set_yscale("symlog", linthresh=10.0)
     ax.set_xlabel("t (s)")
     ax.set_title(rf"$\ell$ = {ell:g}, noise std {noise:g}")
-    legend_outside(ax, below=True)
+    ax.legend(fontsize=8)
 
 
 def _peaks_panel(ax, table: pd.DataFrame, slopes: dict[str, float]) -> None:
@@ -79,7 +79,7 @@ def _peaks_panel(ax, table: pd.DataFrame, slopes: dict[str, float]) -> None:
     ax.set_xlabel(r"$\ell = 1/\varepsilon$")
     ax.set_ylabel(r"peak of $|\hat x_3|$ over [0, 1] s")
     ax.grid(True, which="both", alpha=0.3)
-    legend_outside(ax, below=True)
+    ax.legend(fontsize=8)
 
 
 def peaking_report(result, out_dir: str | Path) -> dict:
