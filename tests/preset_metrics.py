@@ -23,7 +23,18 @@ import time
 from pathlib import Path
 
 STORE = Path(__file__).with_name("preset_metrics.json")
+EXACT_STORE = Path(__file__).with_name("preset_exact.json")
 RTOL = 1e-9
+
+#: runs of the restructured observers (cascade, APA, circle criterion) compared bit for bit
+#: without FMA contraction (``--write-exact``, ``exact_case``)
+EXACT_CASES: dict[str, tuple[str, ...]] = {
+    "dhlm_example": ("experiment=dhlm_example", "solver.t_end=4.0", "metrics.window=1.0",
+                     "postprocess=none"),
+    "apa_fig1": ("experiment=apa_fig1", "solver.t_end=10.0", "metrics.window=1.0",
+                 "solver.split_observers=false", "postprocess=none"),
+    "moreno_fig1": ("experiment=moreno_fig1", "postprocess=none"),
+}
 
 #: case name -> overrides; every preset of conf/experiment, then branch-covering variants
 CASES: dict[str, tuple[str, ...]] = {
@@ -67,6 +78,24 @@ def run_case(overrides: tuple[str, ...]) -> dict[str, float]:
     return _rows(simulate_config(cfg).metrics)
 
 
+def exact_case(overrides: tuple[str, ...]) -> dict[str, list[float]]:
+    """The state at mid-run and at the end, and the window metrics, of one run whose kernel
+    is compiled without fast-math flags (no fused multiply-adds: every operation rounds
+    as written, so the result depends on the arithmetic of the source, not on how LLVM
+    schedules the fusions of the inlined kernel)."""
+    import hgo.engine.codegen as codegen
+    from hgo.running.in_memory import compose_cached
+    from hgo.running.runner import build, run_experiment
+
+    saved, codegen.FASTMATH = codegen.FASTMATH, ()
+    try:
+        traj = run_experiment(build(compose_cached(overrides)))
+    finally:
+        codegen.FASTMATH = saved
+    return {"z_mid": traj.z[len(traj.z) // 2].tolist(), "z_end": traj.z[-1].tolist(),
+            "acc": traj.acc.tolist(), "status": int(traj.status)}
+
+
 def compare(stored: dict[str, float | None], now: dict[str, float | None],
             rtol: float = RTOL) -> list[str]:
     """Lines naming every row that differs (missing, extra or beyond ``rtol``)."""
@@ -87,8 +116,14 @@ def main(argv: list[str] | None = None) -> int:
     mode = parser.add_mutually_exclusive_group(required=True)
     mode.add_argument("--write", action="store_true", help="store the values of the moment")
     mode.add_argument("--check", action="store_true", help="compare with the stored values")
+    mode.add_argument("--write-exact", action="store_true",
+                      help="store the runs of EXACT_CASES without FMA contraction")
     parser.add_argument("cases", nargs="*", help="case names (default: all)")
     args = parser.parse_args(argv)
+    if args.write_exact:
+        EXACT_STORE.write_text(json.dumps({k: exact_case(v) for k, v in EXACT_CASES.items()},
+                                          indent=1) + "\n")
+        return 0
     names = args.cases or list(CASES)
     stored = json.loads(STORE.read_text()) if STORE.exists() else {"cases": {}}
     failures = 0

@@ -23,3 +23,15 @@ def test_preset_metrics_unchanged(name):
     """Every metric row of the case equals its stored value to 1e-9 relative."""
     bad = pm.compare(STORED[name]["rows"], pm.run_case(tuple(STORED[name]["overrides"])))
     assert not bad, "\n".join(bad[:20])
+
+
+EXACT = json.loads(pm.EXACT_STORE.read_text())
+
+
+@pytest.mark.parametrize("name", list(EXACT))
+def test_port_is_exact_without_fused_multiply_adds(name):
+    """Compiled without fast-math flags, the ported observers (cascade, homogeneous,
+    circle criterion) give the stored states and window metrics of the code before the
+    port bit for bit (``preset_exact.json``, written by ``preset_metrics.py
+    --write-exact`` at e00e568): the port changes no arithmetic."""
+    assert pm.exact_case(tuple(pm.EXACT_CASES[name])) == EXACT[name]

@@ -22,6 +22,7 @@ import math
 import os
 import sys
 import tempfile
+import types
 import warnings
 from pathlib import Path
 from types import ModuleType
@@ -449,8 +450,8 @@ def load_kernel(system: System, compiled: bool = True, method: str = "dopri5") -
     module = importlib.util.module_from_spec(spec)
     module.__dict__.update(_decorators(compiled))
     component = module.__dict__["component_jit"]
-    module.__dict__.update({k: fn if _compiled_helper(fn) and compiled else component(fn)
-                            for k, fn in functions.items()})
+    module.__dict__.update({k: _function_constant(fn) if k.startswith("c_const") and compiled
+                            else component(fn) for k, fn in functions.items()})
     sys.modules[name] = module
     spec.loader.exec_module(module)
     _LOADED[key] = module
@@ -460,10 +461,31 @@ def load_kernel(system: System, compiled: bool = True, method: str = "dopri5") -
 _LOADED: dict[tuple, ModuleType] = {}
 
 
-def _compiled_helper(fn: object) -> bool:
-    """A ``kernel_helper`` (already a numba function, e.g. among a component's constants):
-    injected as it is, not compiled again as a component."""
-    return getattr(fn, "py_func", fn) is not fn
+_CONSTANT_FUNCTIONS: dict[tuple, object] = {}
+
+
+def _function_constant(fn: object) -> object:
+    """A function among a component's constants, as the kernel's record holds it: a copy
+    of the Python function registered with numba (``register_jitable``), whose type
+    carries no run-time value. A numba dispatcher in the record would be stored as the
+    address of a Python object, which the on-disk cache would carry into the next
+    process (measured: a kernel loaded from the cache ran from garbage, then
+    ``free(): corrupted unsorted chunks``). A compiled helper (``kernel_helper``) keeps
+    its own options (no fast-math); a user's function gets the components' options."""
+    from numba.extending import register_jitable
+
+    src = getattr(fn, "py_func", fn)
+    options = {"error_model": "numpy"}
+    if src is fn:
+        options["fastmath"] = set(FASTMATH)
+    key = (src, tuple(sorted(FASTMATH)) if src is fn else ())
+    if key not in _CONSTANT_FUNCTIONS:
+        copy = types.FunctionType(src.__code__, src.__globals__, src.__name__,
+                                  src.__defaults__, src.__closure__)
+        copy.__qualname__, copy.__module__ = src.__qualname__, src.__module__
+        register_jitable(**options)(copy)
+        _CONSTANT_FUNCTIONS[key] = copy
+    return _CONSTANT_FUNCTIONS[key]
 
 
 def _layout_key(system: System, method: str, compiled: bool) -> tuple:
@@ -477,7 +499,7 @@ def _layout_key(system: System, method: str, compiled: bool) -> tuple:
               tuple(system.yhat_columns().tolist()), system.controlled_observer(),
               tuple(None if c.params is None else c.params.layout()
                     for c in _components(system)))
-    return (method, compiled, tuple(functions.items()), layout)
+    return (method, compiled, FASTMATH, tuple(functions.items()), layout)
 
 
 def _decorators(compiled: bool) -> dict[str, object]:
