@@ -4,7 +4,9 @@
 
 * ``hgo --help`` (target < 1 s) and a cached ``hgo run experiment=sp_fig1`` (target < 1.5 s),
   medians of ``--reps`` whole processes (wall clock; the run's kernel is compiled first);
-* ``hgo.outputs.runs.load`` over 1,000 run directories (target < 2 s), median of 3.
+* ``hgo.outputs.runs.load`` over 1,000 run directories (target < 2 s), median of 3;
+* ``--presets``: a cached ``hgo run`` of every paper preset that draws figures (one run,
+  not a sweep; target < 1.5 s each, issue 27), one line each with the load average.
 
 The last line is ``startup: help=<s> run=<s> index_1000=<s>``.
 """
@@ -56,10 +58,35 @@ def index_time(n: int, reps: int = 3) -> float:
     return statistics.median(times)
 
 
+def figure_presets() -> list[str]:
+    """The presets of the papers' figures that are single runs (``PAPER_FIGURES``)."""
+    from hgo.core.registry import paper_names
+    from hgo.reproduce.run import paper_figures
+
+    return [f.preset for p in paper_names() for f in paper_figures(p) if not f.sweep]
+
+
+def preset_times(reps: int) -> None:
+    """One line per figure preset: median whole-process time of a cached run."""
+    with tempfile.TemporaryDirectory() as tmp:
+        cwd = Path(tmp)
+        for preset in figure_presets():
+            run = ["run", f"experiment={preset}", f"hydra.run.dir={cwd / preset}"]
+            subprocess.run([*HGO.split(), *run], cwd=cwd, check=True, capture_output=True)
+            t = whole_process(run, cwd, reps)
+            load1 = os.getloadavg()[0]
+            print(f"cached hgo run experiment={preset}: {t:.2f} s (target 1.5), "
+                  f"load {load1:.1f}", flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--reps", type=int, default=5)
+    parser.add_argument("--presets", action="store_true",
+                        help="also time a cached run of every paper figure preset")
     args = parser.parse_args()
+    if args.presets:
+        preset_times(args.reps)
     with tempfile.TemporaryDirectory() as tmp:
         cwd = Path(tmp)
         run = ["run", "experiment=sp_fig1", f"hydra.run.dir={cwd / 'run'}"]

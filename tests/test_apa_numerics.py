@@ -6,9 +6,9 @@ at every noise sample (Delta = 0.01), each observer with its own copy of the pla
 side is locally Lipschitz: the correction powers are >= 1 (10 and 1.9 for the Omega2
 observer, 1 for the others), the powers < 1 of Omega2 (x2^0.1, x^2s^0.9) act on saturated
 arguments >= x2lo(y_s) > 0, and the saturations are Lipschitz kinks; the input switches (10,
-20, 35) are multiples of Delta (cut there) with noise, and resolved by step rejection
-without (noise-free presets). Near s = 0 the term s^1.9 has a Hoelder-continuous derivative
-only: the method loses order there, not convergence, which is what the refinement checks.
+20, 35) are the schedule's break points: every step ends there (tests/test_breakpoints.py).
+Near s = 0 the term s^1.9 has a Hoelder-continuous derivative only: the method loses order
+there, not convergence, which is what the refinement checks.
 """
 
 from __future__ import annotations
@@ -69,10 +69,11 @@ def test_window_metrics_do_not_depend_on_the_output_grid():
 
 def test_discontinuity_at_a_segment_end_with_tight_tolerance_terminates():
     """Engine regression (kernel_template, adaptive loop): the input switch at t = 20 falls on
-    a noise-sample instant, so the last stages of the step ending there see the new input;
-    at rtol 1e-11 that step is rejected down to < 100 tol of the segment end, where it used to
-    be re-planned to the same end forever. It must now finish (status ok) and agree with the
-    1e-8 run."""
+    a noise-sample instant; at rtol 1e-11 a step whose last stages saw the new input was
+    rejected down to < 100 tol of the segment end, where it used to be re-planned to the same
+    end forever. It must finish (status ok) and agree with the 1e-8 run. (The switch is now
+    a declared break point, so that step no longer sees it; the undeclared case:
+    tests/test_breakpoints.py::test_undeclared_jump_at_a_segment_end_terminates.)"""
     tight = run_in_memory(("experiment=apa_fig2", "solver.t_end=21", "metrics.window=1",
                            "solver.rtol=1e-11", "solver.atol=1e-13"))
     base = run_in_memory(("experiment=apa_fig2", "solver.t_end=21", "metrics.window=1"))

@@ -318,3 +318,200 @@ def test_multirun_resumed_into_its_sweep_directory(tmp_path):
     assert (sweep / "job0" / "metrics.csv").stat().st_mtime_ns == kept
     assert (sweep / "job1" / "metrics.csv").exists()
     assert out.count("skipped") + err.count("skipped") == 1
+
+
+# --- writes that cannot finish: a full disk, a stuck writer, Ctrl-C ------------------
+
+
+def _blocked_write(partial: Path):
+    """A stream function that writes a little and then never returns (as Rerun's flush
+    on a dead file writer)."""
+    def stream() -> bool:
+        import time
+
+        partial.write_bytes(b"x" * 100)
+        time.sleep(600)
+        return True
+    return stream
+
+
+def test_a_stuck_write_on_a_full_disk_ends_within_seconds(tmp_path, monkeypatch):
+    """The writer stops making progress while the disk has no space: OSError(ENOSPC)
+    naming the file after ~FULL_DISK_SECONDS, the writing process killed."""
+    import errno
+    import time
+
+    import pytest
+
+    from hgo.core.errors import one_line
+    from hgo.outputs import recording
+
+    monkeypatch.setattr(recording, "_free_bytes", lambda folder: 0)
+    partial = tmp_path / "recording.rrd.partial"
+    t0 = time.monotonic()
+    with pytest.raises(OSError) as info:
+        recording.bounded_write(partial, _blocked_write(partial))
+    assert time.monotonic() - t0 < 10
+    assert info.value.errno == errno.ENOSPC
+    assert one_line(info.value).startswith(f"no space left on {partial} (")
+
+
+def test_a_stalled_write_ends_after_the_stall_limit(tmp_path, monkeypatch):
+    import time
+
+    import pytest
+
+    from hgo.outputs import recording
+
+    monkeypatch.setattr(recording, "STALL_SECONDS", 0.5)
+    partial = tmp_path / "r.partial"
+    t0 = time.monotonic()
+    with pytest.raises(TimeoutError, match="made no progress for 0.5 s"):
+        recording.bounded_write(partial, _blocked_write(partial))
+    assert time.monotonic() - t0 < 10
+
+
+def test_ctrl_c_ends_a_blocked_write_at_once(tmp_path):
+    """SIGINT while the writer is blocked (where Rerun's native flush ignored it):
+    KeyboardInterrupt within a second, the writing process gone."""
+    import signal
+    import time
+
+    import pytest
+
+    from hgo.outputs import recording
+
+    partial = tmp_path / "r.partial"
+    previous = signal.signal(signal.SIGALRM, lambda *a: signal.raise_signal(signal.SIGINT))
+    signal.setitimer(signal.ITIMER_REAL, 0.5)
+    t0 = time.monotonic()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            recording.bounded_write(partial, _blocked_write(partial))
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+    assert time.monotonic() - t0 < 3
+
+
+def _mount_tmpfs(folder: Path, size: str) -> bool:
+    folder.mkdir()
+    try:
+        done = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs",
+                               str(folder)], capture_output=True, timeout=10)
+    except (OSError, subprocess.TimeoutExpired):
+        return False
+    return done.returncode == 0
+
+
+def test_full_tmpfs_ends_the_run_with_one_line(tmp_path):
+    """A real full disk (a 1 MiB tmpfs; needs root): the run ends with exit 1 and
+    ``error: no space left on <dir>/recording.rrd.partial (...)``, no complete-looking
+    recording, within seconds (Rerun's writer alone hung in 4 of 15 tries)."""
+    import time
+
+    import pytest
+
+    disk = tmp_path / "disk"
+    if not _mount_tmpfs(disk, "1m"):
+        pytest.skip("cannot mount a tmpfs here (not root?)")
+    try:
+        t0 = time.monotonic()
+        proc = _run_cli([*SHORT, "solver.t_end=200", f"hydra.run.dir={disk}/run"], tmp_path)
+        _, err = proc.communicate(timeout=120)
+        elapsed = time.monotonic() - t0
+        assert proc.returncode == 1, err
+        lines = [ln for ln in err.splitlines() if ln.strip()]
+        assert lines == [f"error: no space left on {disk}/run/recording.rrd.partial "
+                         "(No space left on device, 0 MiB free)"], err
+        assert not (disk / "run" / "recording.rrd").exists()
+        assert elapsed < 60
+    finally:
+        subprocess.run(["umount", "-l", str(disk)], capture_output=True, timeout=30)
+
+
+# --- SIGTERM, a compile interrupted --------------------------------------------------
+
+
+def test_sigterm_ends_a_run_like_ctrl_c(tmp_path):
+    """SIGTERM (kill, a scheduler) ended the run at once without marking it: now exit
+    130, one error line, metrics.csv and run.json say interrupted."""
+    import json
+    import signal
+    import time
+
+    import pandas as pd
+
+    run_dir = tmp_path / "long"
+    proc = _run_cli(["experiment=sp_oscillation", "postprocess=none", "solver.t_end=100000",
+                     "solver.dt_out=1", "solver.h_max=0.001", "metrics.window=5",
+                     f"hydra.run.dir={run_dir}"], tmp_path)
+    for line in proc.stdout:
+        if "integrating" in line:
+            break
+    time.sleep(1.0)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    errors = [ln for ln in err.splitlines() if ln.startswith("error: ")]
+    assert len(errors) == 1 and "interrupted" in errors[0], err
+    assert set(pd.read_csv(run_dir / "metrics.csv").status) == {"interrupted"}
+    assert json.loads((run_dir / "run.json").read_text())["status"].startswith("interrupted")
+
+
+def test_ctrl_c_while_compiling_says_so_and_stops_when_compiled(capfd):
+    """The kernel call is stuck (numba compiling, ~6 s): Ctrl-C shows one line saying the
+    run stops once compiled, and the call returns as soon as it does."""
+    import signal
+    import time
+
+    import numpy as np
+
+    from hgo.engine.simulate import _interruptible
+
+    ctl = np.zeros(1)
+    previous = signal.signal(signal.SIGALRM, lambda *a: signal.raise_signal(signal.SIGINT))
+    signal.setitimer(signal.ITIMER_REAL, 0.2)
+    t0 = time.monotonic()
+    try:
+        value = _interruptible(lambda: time.sleep(1.5) or "compiled", (), ctl)
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+    assert value == "compiled" and ctl[0] == 1 and time.monotonic() - t0 < 5
+    assert capfd.readouterr().err == ("interrupted: stopping once numba has compiled the "
+                                      "kernel (Ctrl-C again to stop at once)\n")
+
+
+ENVELOPE = textwrap.dedent('''
+    import warnings
+    warnings.simplefilter("always")
+    import numpy as np
+    from hgo.outputs.decimate import envelope
+    from hgo.outputs.recording import Series
+    t = np.arange(1000) * 0.01
+    _, (s,) = envelope(t, [Series("/x", ["a"], np.sin(t)[:, None])], 64)
+    print(float(s.values.sum()))
+''')
+
+
+def test_garbage_in_hgos_own_numba_cache_is_repaired_with_one_warning(tmp_path):
+    """hgo's own cached numba functions called from Python (the decimated recording's
+    envelope): garbage in their cache files failed the run after the simulation; now one
+    warning, the same result, and the next run is silent."""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "nb"), "PYTHONPATH": str(ROOT)}
+
+    def run() -> subprocess.CompletedProcess:
+        return subprocess.run([sys.executable, "-c", ENVELOPE], env=env, check=True,
+                              capture_output=True, text=True, timeout=300)
+
+    value = float(run().stdout)
+    files = [p for p in (tmp_path / "nb").rglob("*.nb[ic]") if "decimate" in p.name]
+    assert {p.suffix for p in files} == {".nbi", ".nbc"}
+    for path in files:
+        path.write_bytes(b"garbage" * 3)
+    out = run()
+    assert float(out.stdout) == value
+    assert out.stderr.count("RuntimeWarning") == 1 and "is damaged" in out.stderr, out.stderr
+    out = run()
+    assert float(out.stdout) == value and "Warning" not in out.stderr

@@ -78,3 +78,29 @@ def test_a_figure_that_fails_fails_the_run_with_one_line(tmp_path, figure, code,
     assert [ln for ln in proc.stderr.splitlines() if ln.startswith("error")] == [line]
     assert (out / "recording.rrd").is_file() and (out / "metrics.csv").is_file()
     assert not (out / ".hgo_done").exists()
+
+
+def test_drawing_view_keeps_both_ends_and_every_extreme_of_a_long_run(tmp_path, monkeypatch):
+    """With the thresholds scaled down (50 full-rate samples at each end, 100 buckets), a
+    501-sample run reaches the figure process as 300 rows a series: both ends exact, the
+    min and max of every column kept, the metrics untouched; a short run is unchanged."""
+    import numpy as np
+
+    import hgo.running.figure_worker as fw
+
+    cfg = compose(["experiment=sp_fig1", "solver.t_end=5", "metrics.window=1",
+                   "figures.fig1=null"], tmp_path)
+    result = run(cfg, tmp_path)
+    assert fw.drawing_view(result) is result  # 501 samples: far under the thresholds
+    monkeypatch.setattr(fw, "FULL_RATE", 50)
+    monkeypatch.setattr(fw, "BUCKETS", 100)
+    view = fw.drawing_view(result)
+    assert len(view.trajectory.t) == 300 and np.all(np.diff(view.trajectory.t) >= 0)
+    assert view.metrics is result.metrics
+    for full, small in zip(result.series, view.series, strict=True):
+        assert small.values.shape == (300, full.values.shape[1])
+        np.testing.assert_array_equal(small.values[:50], full.values[:50])
+        np.testing.assert_array_equal(small.values[-50:], full.values[-50:])
+        np.testing.assert_array_equal(small.values.min(axis=0), full.values.min(axis=0))
+        np.testing.assert_array_equal(small.values.max(axis=0), full.values.max(axis=0))
+    np.testing.assert_array_equal(view.trajectory.xh[-50:], result.trajectory.xh[-50:])

@@ -65,3 +65,35 @@ def test_components_are_not_cached_apart_from_their_kernel(tmp_path):
     _run(tmp_path)
     cached = {p.name.split("-")[0] for p in (tmp_path / "numba").rglob("userplant.*.nbi")}
     assert cached == {"userplant.rate"}
+
+
+COMPILE_ONE = textwrap.dedent('''
+    import sys, time
+    from hgo.engine.codegen import load_kernel
+    from hgo.engine.simulate import SolverSettings, no_noise, simulate
+    from hgo.engine.system import System
+    from hgo.observers.triangular import triangular_hgo
+    from hgo.plants.sp_linear import sp_linear_plant
+
+    system = System(sp_linear_plant(), [triangular_hgo("o", K=[2, 2], xhat0=[0, 0])])
+    while time.time() < float(sys.argv[1]):  # both processes start the call together
+        time.sleep(0.01)
+    simulate(system, SolverSettings(t_end=1.0, dt_out=0.5), no_noise(1))
+    stats = load_kernel(system).integrate.stats
+    print(sum(stats.cache_misses.values()), sum(stats.cache_hits.values()))
+''')
+
+
+def test_two_processes_needing_one_new_kernel_compile_it_once(tmp_path):
+    """Two processes that need the same kernel at the same time, on an empty cache: one
+    compiles it (a numba cache miss), the other waits on the entry's lock and loads it
+    from numba's cache (a hit)."""
+    import time
+
+    env = {**os.environ, "HGO_CACHE_DIR": str(tmp_path / "kernels"),
+           "NUMBA_CACHE_DIR": str(tmp_path / "numba")}
+    start = str(time.time() + 8.0)  # after both have imported hgo and numba
+    procs = [subprocess.Popen([sys.executable, "-c", COMPILE_ONE, start], env=env,
+                              stdout=subprocess.PIPE, text=True) for _ in range(2)]
+    counts = sorted(tuple(map(int, p.communicate(timeout=600)[0].split())) for p in procs)
+    assert counts == [(0, 1), (1, 0)]  # (misses, hits): one compile, one cache load

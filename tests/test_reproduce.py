@@ -17,15 +17,25 @@ from hgo.reproduce.run import main, paper_figures, reproduce
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER = "sanfelice_praly"
-CHECK_JS = """<script>window.addEventListener('load', function () {
+CHECK_JS = r"""<script>window.addEventListener('load', function () {
+  var all = function (q) { return [].slice.call(document.querySelectorAll(q)); };
   var imgs = [].slice.call(document.images);
   var broken = imgs.filter(function (i) { return !(i.complete && i.naturalWidth > 0); });
-  var wide = [].slice.call(document.querySelectorAll('table')).filter(function (t) {
+  var wide = all('table').filter(function (t) {
     return t.getBoundingClientRect().width > t.parentElement.clientWidth + 1 ||
            t.getBoundingClientRect().right > document.documentElement.clientWidth + 1; });
+  var links = all('nav.toc a[href^="#"]');
+  var dangling = links.filter(function (a) {
+    return !document.getElementById(a.getAttribute('href').slice(1)); });
+  var cells = all('table.claims > tbody > tr > td');
+  var longest = Math.max.apply(null, cells.map(function (c) { return c.innerText.length; }));
+  var text = document.body.innerText;
+  var markdown = (text.match(/\*\*|`/g) || []).length;
   var out = document.createElement('pre');
   out.textContent = 'CHECK images=' + imgs.length + ' broken=' + broken.length +
-                    ' overflowing=' + wide.length;
+                    ' overflowing=' + wide.length + ' toc=' + links.length +
+                    ' dangling=' + dangling.length + ' cells=' + cells.length +
+                    ' longest=' + longest + ' markdown=' + markdown;
   document.body.appendChild(out); });</script>"""
 CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
                   "--no-first-run", "--disable-background-networking",
@@ -43,7 +53,8 @@ def test_report_has_every_claim_and_figure(report):
     md = (out / "report.md").read_text()
     for c in all_claims([PAPER]):
         assert f"| {c.id} |" in md and c.verdict in md
-    assert "| agrees |" in md and "DISAGREES" not in md and "| error |" not in md
+    # the self-check column is shown only where a check fails (none here)
+    assert "self-check" not in md and "| claim | where | statement | deciding numbers" in md
     n_figures = sum(len(f.captions) for f in paper_figures(PAPER))
     assert len(list((out / "figures").glob("*.png"))) == n_figures == 5
     html = (out / "report.html").read_text()
@@ -63,27 +74,44 @@ def test_unknown_paper_is_one_line_error(capsys):
     assert err.startswith("error: paper: no_such_paper unknown (allowed: ") and "\n" not in err
 
 
+SCREENS = {1400: "report-1400.png", 800: "report-800.png"}  # in outputs/, looked at
+
+
+def _check(chromium: str, page: Path, profile: Path, width: int) -> dict[str, int]:
+    args = [chromium, *CHROMIUM_FLAGS, f"--user-data-dir={profile}",
+            f"--window-size={width},900"]
+    dom = subprocess.run([*args, "--virtual-time-budget=5000", "--dump-dom", page.as_uri()],
+                         capture_output=True, text=True, timeout=60).stdout
+    found = re.search(r"CHECK ((?:\w+=\d+ ?)+)", dom)
+    assert found, dom[-2000:]
+    return {k: int(v) for k, v in (f.split("=") for f in found.group(1).split())}
+
+
 def test_report_in_a_headless_browser(report, tmp_path):
-    """Chromium loads report.html: every figure decodes, no table is wider than the page;
-    a screenshot is saved to outputs/report-screenshot.png."""
+    """Chromium loads report.html at 1400 and 800 px: every figure decodes, no table is
+    wider than the page, every link of the table of contents has its target, no cell of
+    a claims table shows more than 400 characters (the rest is in collapsed details), no
+    Markdown is left in the text; screenshots at both widths are saved to outputs/."""
     chromium = shutil.which("chromium") or shutil.which("chromium-browser")
     if chromium is None:
         pytest.skip("chromium is not installed (.ci/run installs it)")
     _, out = report
-    page = tmp_path / "checked.html"
+    page = out / "checked.html"  # beside report.html: its PDF links resolve the same
     page.write_text((out / "report.html").read_text().replace("</body>", CHECK_JS + "</body>"))
-    args = [chromium, *CHROMIUM_FLAGS, f"--user-data-dir={tmp_path / 'profile'}",
-            "--window-size=1280,900"]
-    dom = subprocess.run([*args, "--virtual-time-budget=5000", "--dump-dom", page.as_uri()],
-                         capture_output=True, text=True, timeout=60).stdout
-    found = re.search(r"CHECK images=(\d+) broken=(\d+) overflowing=(\d+)", dom)
-    assert found, dom[-2000:]
-    assert found.groups() == ("5", "0", "0")
-    shot = ROOT / "outputs" / "report-screenshot.png"
-    shot.parent.mkdir(exist_ok=True)
-    subprocess.run([*args, f"--screenshot={shot}", "--window-size=1280,4000",
-                    (out / "report.html").as_uri()], capture_output=True, timeout=60)
-    assert shot.stat().st_size > 10_000
+    n_claims = len(all_claims([PAPER]))
+    for width, name in SCREENS.items():
+        found = _check(chromium, page, tmp_path / f"profile{width}", width)
+        assert found["images"] == 5 and found["broken"] == 0, found
+        assert found["overflowing"] == 0, found
+        assert found["toc"] >= 5 and found["dangling"] == 0, found
+        assert found["cells"] == 4 * n_claims and found["longest"] <= 400, found
+        assert found["markdown"] == 0, found
+        shot = ROOT / "outputs" / name
+        shot.parent.mkdir(exist_ok=True)
+        subprocess.run([chromium, *CHROMIUM_FLAGS, f"--user-data-dir={tmp_path / 'shot'}",
+                        f"--screenshot={shot}", f"--window-size={width},5000",
+                        (out / "report.html").as_uri()], capture_output=True, timeout=60)
+        assert shot.stat().st_size > 10_000
 
 
 def test_readme_what_reproduces_table_is_the_registry():

@@ -324,4 +324,4 @@ def test_aggregate_combines_jobs_and_skips_failed_ones(runs, tmp_path, capsys):
     assert "observer.sign_indefinite.p2=1.5" in md and "job3: no metrics.csv" in md
     assert "job4: run failed" in md
     assert paths["png"].stat().st_size > 0
-    assert "rerun " in capsys.readouterr().out
+    assert "open together in the Rerun viewer:  hgo view " in capsys.readouterr().out

@@ -7,12 +7,24 @@ from __future__ import annotations
 
 import argparse
 import gc
+import os
+import signal
 import sys
+
+
+def user_modules_importable() -> None:
+    """Modules in the current directory importable by ``_target_`` (``vdp.make_vdp`` with
+    ``vdp.py`` here), first on the path as ``python -m`` puts them: the ``hgo`` console
+    script's own ``sys.path[0]`` is its ``bin/`` folder instead."""
+    cwd = os.getcwd()
+    if cwd not in sys.path:
+        sys.path.insert(0, cwd)
 
 
 def run_app(args: list[str], prog: str = "hgo run") -> int:
     """``hgo run``: the Hydra application (:mod:`hgo.cli.app`) on ``args``; ``prog`` is the
     command name Hydra and ``run.json`` see (``experiments/run.py`` passes its own)."""
+    user_modules_importable()
     gc.disable()  # imports make ~1M lasting objects, no garbage: full passes cost ~0.07 s
     try:
         from hgo.cli.app import cli_main
@@ -21,8 +33,16 @@ def run_app(args: list[str], prog: str = "hgo run") -> int:
         gc.enable()
 
     sys.argv = [prog, *args]
+    signal.signal(signal.SIGTERM, _terminated)
     cli_main()
     return 0
+
+
+def _terminated(signum, frame) -> None:
+    """SIGTERM (``kill``, a scheduler's time limit) ends a run as Ctrl-C does: the kernel
+    stops within a step, outputs up to then are written and marked interrupted, exit 130
+    (it ended the process at once, marking nothing)."""
+    raise KeyboardInterrupt("interrupted by SIGTERM")
 
 
 def _reproduce(args: list[str]) -> int:
@@ -33,6 +53,12 @@ def _reproduce(args: list[str]) -> int:
 
 def _list(args: list[str]) -> int:
     from hgo.cli.catalog import main
+
+    return main(args)
+
+
+def _view(args: list[str]) -> int:
+    from hgo.cli.view import main
 
     return main(args)
 
@@ -48,14 +74,18 @@ def _runs_command(name: str):
 
 COMMANDS = {
     "run": (run_app, "run an experiment: hgo run experiment=sp_fig1 [-m for sweeps] "
-                  "(Hydra overrides; hgo run --help lists the groups)"),
+                  "[--config-dir DIR: your groups and presets] (Hydra overrides; "
+                  "hgo run --help lists the groups)"),
     "reproduce": (_reproduce, "run every figure and claim of the papers and write a report "
                               "(hgo reproduce --help)"),
-    "list": (_list, "the experiment presets with their descriptions, and each group's options"),
+    "list": (_list, "the experiment presets with their descriptions, and each group's options "
+                    "(--config-dir DIR: yours too)"),
     "runs": (_runs_command("runs"), "every run under outputs/ as one table (--where, --metrics, "
                                     "--compare A B)"),
     "show": (_runs_command("show"), "one run: status, provenance, config, metrics"),
     "export": (_runs_command("export"), "a recording as CSV or Parquet (--format csv|parquet)"),
+    "view": (_view, "open runs (a sweep directory: all its jobs) in the Rerun viewer, each its "
+                    "own recording (--web: serve to a browser and print the ports to forward)"),
 }
 
 

@@ -24,7 +24,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from hgo.core.config import conf_dir, register_configs
 from hgo.outputs.console import job_line
-from hgo.running.job import EXIT_CONFIG, is_complete, one_line_errors, run_job
+from hgo.running.job import EXIT_CONFIG, is_complete, last_error, one_line_errors, run_job
 
 register_configs()
 OUTPUTS = Path("outputs")
@@ -61,16 +61,23 @@ def _key_metric(table: pd.DataFrame | None) -> tuple[str, float] | None:
 
 
 def _point_latest(out_dir: Path) -> None:
-    """``outputs/latest`` -> ``out_dir`` when the run is under ``outputs/``."""
+    """``outputs/latest`` -> ``out_dir`` when the run is under ``outputs/``; a link that
+    cannot be made (``latest`` a directory, a read-only ``outputs/``) is a warning: the run
+    itself is complete."""
     try:
         rel = out_dir.resolve().relative_to(OUTPUTS.resolve())
     except ValueError:
         return
     link = OUTPUTS / "latest"
     tmp = OUTPUTS / ".latest.tmp"
-    tmp.unlink(missing_ok=True)
-    tmp.symlink_to(rel, target_is_directory=True)
-    tmp.replace(link)
+    try:
+        tmp.unlink(missing_ok=True)
+        tmp.symlink_to(rel, target_is_directory=True)
+        tmp.replace(link)
+    except OSError as err:
+        tmp.unlink(missing_ok=True) if tmp.is_symlink() else None
+        sys.stderr.write(f"warning: {link} not updated ({err.strerror or err}); the run is "
+                         f"complete in {out_dir}\n")
 
 
 def _run_status(out_dir: Path, code: int) -> tuple[str, pd.DataFrame | None]:
@@ -91,6 +98,10 @@ def main(cfg: DictConfig) -> None:
         logging.getLogger("hgo").setLevel(logging.WARNING)
     skipped = bool(cfg.get("resume", False)) and is_complete(cfg, out_dir)
     code = run_job(cfg, out_dir, figures_aside=not multirun)
+    if multirun and code:  # for the summary in the sweep's process (any launcher)
+        from hgo.running.aggregate import record_failure
+
+        record_failure(Path(hc.sweep.dir), out_dir.name, code, last_error())
     if not out_dir.exists():  # a configuration error: the one line is already out
         return
     _point_latest(out_dir)

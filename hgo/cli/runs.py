@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 import argparse
-import json
+import math
+import re
 import sys
+import warnings
 from pathlib import Path
 
 import pandas as pd
 
-from hgo.outputs.runs import load
+from hgo.core.errors import one_line
+from hgo.outputs.runs import BadRunRecord, load, read_run_json
 
 SHOWN = ["path", "run_name", "status", "started", "seconds.simulate"]
 
@@ -19,14 +22,64 @@ def _error(message: str) -> int:
     return 2
 
 
+_CONDITION = re.compile(r"^(?P<key>[^=!<>]+?)\s*(?P<op>!=|<=|>=|=|<|>)\s*(?P<value>.*)$")
+
+
+class WhereError(ValueError):
+    """A ``--where`` condition that cannot be applied (one line)."""
+
+
+def _number(text: str) -> float | None:
+    try:
+        value = float(text)
+    except ValueError:
+        return None
+    return value if math.isfinite(value) or text.strip().lower() in ("inf", "-inf") else None
+
+
+def _condition(df: pd.DataFrame, cond: str) -> pd.Series:
+    """The rows meeting ``key<op>value``: numbers compare as numbers (``p2=8e-3`` finds the
+    stored 0.008), text as text (``true``/``false`` in any case)."""
+    match = _CONDITION.match(cond)
+    if not match:
+        raise WhereError(f"--where: '{cond}' needs an operator and a value (allowed: "
+                         "KEY=VALUE, KEY!=VALUE, KEY<VALUE, KEY>VALUE, KEY<=VALUE, KEY>=VALUE)")
+    key, op, value = match["key"].strip(), match["op"], match["value"].strip()
+    col = _column(df, key)
+    number = _number(value)
+    if number is not None:
+        column = pd.to_numeric(df[col].where(df[col].map(lambda v: not isinstance(v, bool))),
+                               errors="coerce")
+        found = {"=": column == number, "!=": column != number, "<": column < number,
+                 ">": column > number, "<=": column <= number, ">=": column >= number}[op]
+        return found & column.notna() if op != "!=" else found
+    if op not in ("=", "!="):
+        raise WhereError(f"--where: '{cond}': {op} needs a number, got '{value}'")
+    text = df[col].map(lambda v: str(v).lower() if isinstance(v, bool) else str(v))
+    wanted = value.lower() if value.lower() in ("true", "false") else value
+    return text == wanted if op == "=" else text != wanted
+
+
+def _column(df: pd.DataFrame, key: str) -> str:
+    """The column of ``key``: a provenance column, ``config.<key>``, or the one config key
+    ending in ``.<key>`` (``p2`` for ``observer.sign_indefinite.p2``)."""
+    for col in (key, f"config.{key}"):
+        if col in df.columns:
+            return col
+    found = [c for c in df.columns if c.startswith("config.") and c.endswith(f".{key}")]
+    if len(found) > 1:
+        raise WhereError(f"--where: '{key}' matches {len(found)} config keys (allowed: one "
+                         f"of {', '.join(c.removeprefix('config.') for c in found[:5])})")
+    if not found:
+        raise KeyError(key)
+    return found[0]
+
+
 def _select(df: pd.DataFrame, where: list[str]) -> pd.DataFrame:
-    """Rows whose ``config.<key>`` (or provenance column) equals the value as text."""
+    """Rows meeting every condition (:func:`_condition`) on a ``config.<key>`` (or a
+    provenance column)."""
     for cond in where:
-        key, _, value = cond.partition("=")
-        col = key if key in df.columns else f"config.{key}"
-        if col not in df.columns:
-            raise KeyError(key)
-        df = df[df[col].astype(str) == value]
+        df = df[_condition(df, cond)]
     return df
 
 
@@ -39,14 +92,18 @@ def runs(argv: list[str]) -> int:
     parser = argparse.ArgumentParser(prog="hgo runs", description="Every run under a folder.")
     parser.add_argument("--root", default="outputs")
     parser.add_argument("--where", nargs="*", default=[], metavar="KEY=VALUE",
-                        help="keep runs whose config key (dotted) has this value")
+                        help="keep runs whose config key (dotted) meets this: KEY=VALUE, "
+                             "!=, <, >, <=, >= (numbers compare as numbers)")
     parser.add_argument("--metrics", default="", help="comma-separated quantities to show")
     parser.add_argument("--compare", nargs=2, metavar=("A", "B"),
                         help="two run directories: config and metric differences")
     args = parser.parse_args(argv)
     if args.compare:
         return compare(*args.compare)
-    df = load(args.root)
+    skipped: list[str] = []
+    df = load(args.root, skipped)
+    for line in skipped:  # one line each; the other runs are listed
+        print(f"skipped: {line}", file=sys.stderr)
     if df.empty:
         print(f"no runs under {args.root}")
         return 0
@@ -54,6 +111,8 @@ def runs(argv: list[str]) -> int:
         df = _select(df, args.where)
     except KeyError as err:
         return _error(f"--where: no config key {err} in the runs under {args.root}")
+    except WhereError as err:
+        return _error(str(err))
     metrics = _metric_columns(df, [m for m in args.metrics.split(",") if m])
     if args.metrics and not metrics:
         return _error(f"--metrics: no run has a quantity named {args.metrics}")
@@ -65,20 +124,16 @@ def runs(argv: list[str]) -> int:
     return 0
 
 
-def _info(run_dir: Path) -> dict:
-    return json.loads((run_dir / "run.json").read_text())
-
-
 def compare(a: str, b: str) -> int:
     """Config keys and metrics that differ between two runs, side by side."""
     try:
-        ia, ib = _info(Path(a)), _info(Path(b))
-    except OSError as err:
-        return _error(f"--compare: {err.filename} has no run.json")
+        ia, ib = read_run_json(Path(a)), read_run_json(Path(b))
+    except BadRunRecord as err:
+        return _error(f"--compare: {err}")
     for section in ("config", "metrics"):
-        keys = sorted(set(ia[section]) | set(ib[section]))
-        diff = [(k, ia[section].get(k), ib[section].get(k)) for k in keys
-                if ia[section].get(k) != ib[section].get(k)]
+        sa, sb = ia.get(section, {}), ib.get(section, {})
+        keys = sorted(set(sa) | set(sb))
+        diff = [(k, sa.get(k), sb.get(k)) for k in keys if sa.get(k) != sb.get(k)]
         print(f"{section}: {len(diff)} difference(s)")
         for k, va, vb in diff:
             print(f"  {k:50s} {va!s:>22} {vb!s:>22}")
@@ -95,17 +150,24 @@ def show(argv: list[str]) -> int:
     run_dir = Path(args.run).resolve()  # outputs/latest is a link
     if not (run_dir / "run.json").exists():
         return _error(f"run: {args.run} has no run.json (not a run directory)")
-    info = _info(run_dir)
-    print(f"{run_dir}\nstatus: {info['status']}   started {info['started']}   "
-          f"seconds {info.get('seconds', {})}")
-    print(f"hgo {info['hgo']} commit {info.get('git_commit', '?')}"
-          f"{' (dirty)' if info.get('git_dirty') else ''}   command: {info['command']}")
+    try:
+        info = read_run_json(run_dir)
+    except BadRunRecord as err:
+        return _error(f"run: {err}")
+    print(f"{run_dir}\nstatus: {info.get('status', '?')}   started "
+          f"{info.get('started', '?')}   seconds {info.get('seconds', {})}")
+    print(f"hgo {info.get('hgo', '?')} commit {info.get('git_commit', '?')}"
+          f"{' (dirty)' if info.get('git_dirty') else ''}   command: "
+          f"{info.get('command', '?')}")
     config = run_dir / ".hydra" / "config.yaml"
     if config.exists():
-        print("\nconfig (.hydra/config.yaml):\n" + config.read_text())
+        print("\nconfig (.hydra/config.yaml):\n" + config.read_text(errors="replace"))
     metrics = run_dir / "metrics.csv"
     if metrics.exists():
-        print("metrics (metrics.csv):\n" + compact_table(pd.read_csv(metrics)))
+        try:
+            print("metrics (metrics.csv):\n" + compact_table(pd.read_csv(metrics)))
+        except Exception as err:  # noqa: BLE001 - pandas' errors for a damaged file vary
+            print(f"warning: {metrics} unreadable ({one_line(err)})", file=sys.stderr)
     return 0
 
 
@@ -123,10 +185,20 @@ def export(argv: list[str]) -> int:
     if not rrd.is_file():
         return _error(f"source: {rrd} does not exist")
     out = Path(args.out) if args.out else rrd.with_suffix(f".{args.format}")
-    df = read_recording(rrd)
-    if args.format == "csv":
-        df.to_csv(out)
-    else:
-        df.to_parquet(out)
+    if not out.parent.is_dir():
+        return _error(f"--out: folder {out.parent} does not exist")
+    try:
+        with warnings.catch_warnings():  # (Rerun's warning about a footer; the line says it)
+            warnings.simplefilter("ignore")
+            df = read_recording(rrd)
+    except ValueError as err:  # not a recording, truncated (RecordingIncomplete)
+        return _error(f"source: {one_line(err)}")
+    try:
+        if args.format == "csv":
+            df.to_csv(out)
+        else:
+            df.to_parquet(out)
+    except OSError as err:
+        return _error(f"--out: {one_line(err)}")
     print(f"wrote {out} ({len(df)} rows x {df.shape[1]} series)")
     return 0

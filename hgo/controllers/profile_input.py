@@ -7,13 +7,12 @@ with a = 0 and a > 0 see the same sigma = x2. Profiles (``kind``):
 * ``bad``: r = 0 (u = 0 for a = 0): the paper's bad input, sigma stays at 0;
 * ``pulse``: r = 0 before t_on, a ramp from 0 to ``level`` over [t_on, t_on + tau], then
   ``level`` (default: t_on = 5, tau = 0.5, level = 2, the Fig. 1 input). ``ramp``:
-  ``smooth`` (default) is the quintic smoothstep r = level (10 s^3 - 15 s^4 + 6 s^5),
-  s = (t - t_on) / tau, so u = r' + a r is continuous with a continuous slope; ``linear``
-  is the implementation notes' ramp of slope level / tau, whose u jumps at the corners.
-  Why smooth by default: the engine cuts steps at noise samples, not at input corners, and
-  an embedded pair stepping over a jump of u leaves errors of ~1e-8 at rtol 1e-10 that
-  depend on rounding (a kernel compiled afresh and one loaded from cache differed by
-  8e-8 on Fig. 1 with the linear ramp);
+  ``linear`` (default) is the implementation notes' ramp of slope level / tau, whose u
+  jumps at the corners; the corners are the controller's break points (:func:`corners`),
+  so the engine ends a step at each and never steps over a jump (before break points, an
+  embedded pair stepping over it left errors of ~1e-8 at rtol 1e-10 that depended on
+  rounding). ``smooth`` is the quintic smoothstep r = level (10 s^3 - 15 s^4 + 6 s^5),
+  s = (t - t_on) / tau, so u = r' + a r is continuous with a continuous slope;
 * ``pulse_return``: ``pulse``, then back to 0 by a ramp on [t_back, t_back + tau);
 * ``sin``: r = amp sin(omega t).
 
@@ -69,7 +68,7 @@ def u(t, xhat, y, p, u_out):
 
 def profile_input(kind: str = "pulse", a: float = 0.0, t_on: float = 5.0, tau: float = 0.5,
                   level: float = 2.0, amp: float = 2.0, omega: float = 1.0,
-                  t_back: float = 9.0, ramp: str = "smooth", name: str = "profile"
+                  t_back: float = 9.0, ramp: str = "linear", name: str = "profile"
                   ) -> Controller:
     """Input u = r' + a r for the profile ``kind`` (see the module docstring)."""
     if kind not in KINDS:
@@ -86,17 +85,22 @@ def profile_input(kind: str = "pulse", a: float = 0.0, t_on: float = 5.0, tau: f
         raise ValueError(f"controller.t_back must be >= t_on + tau = {t_on + tau}, got {t_back}")
     p = Params({"kind": KINDS[kind], "smooth": RAMPS[ramp]}, a=a, t_on=t_on, tau=tau,
                level=level, amp=amp, omega=omega, t_back=t_back)
-    return Controller(name=name, p=p, u=u, observer=None)
+    return Controller(name=name, p=p, u=u, observer=None, breaks=corners)
+
+
+def corners(p) -> list[float]:
+    """The instants where u jumps (linear ramp) or its higher derivatives do (smooth
+    ramp): the ramps' ends, the controller's break points (the engine ends a step at
+    each). The same sums as :func:`_ramp` compares t with, so the same floats."""
+    t_on, tau, t_back = p.t_on, p.tau, p.t_back
+    return {0: [], 1: [t_on, t_on + tau], 2: [t_on, t_on + tau, t_back, t_back + tau],
+            3: []}[p.kind]
 
 
 def breakpoints(c: Controller, t_end: float) -> list[float]:
     """Instants in (0, t_end) where u or its slope has a corner (a reference integrator
     restarts there)."""
-    p = c.p
-    t_on, tau, t_back = p.t_on, p.tau, p.t_back
-    pts = {0: [], 1: [t_on, t_on + tau], 2: [t_on, t_on + tau, t_back, t_back + tau],
-           3: []}[p.kind]
-    return [t for t in pts if 0 < t < t_end]
+    return [t for t in corners(c.p) if 0 < t < t_end]
 
 
 def input_period(c: Controller | None) -> float | None:

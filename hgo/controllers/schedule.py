@@ -3,12 +3,11 @@
     u(t) = values[0] for t < times[0], values[k] for times[k-1] <= t < times[k],
            values[-1] for t >= times[-1]   (right-continuous at each switch).
 
-The input ignores every estimate. The integrators do not cut steps at the switches
-themselves: a step that crosses one (or ends on it, whose last stages then see the new
-value) has a local error of the order of the jump, which the error control of
-dopri5/dop853 rejects until the step is short enough; the switch is resolved to the
-tolerance (checked by a refinement test). Where the switches are multiples of the noise
-sample period, steps are cut there too.
+The input ignores every estimate. The switch instants are the controller's break points
+(:func:`switches`): every integrator ends a step exactly at each one, the step ending
+there sees the value before the switch and everything from the switch on the value after
+it, so no step is rejected for the jump and the recorded u(t_k) is values[k]
+(right-continuous), whatever the tolerance.
 
 Parameters (by name): constant n (switches), values times (n) and values (n + 1).
 """
@@ -31,6 +30,11 @@ def u(t, xhat, y, p, u_out):
         u_out[i] = val
 
 
+def switches(p):
+    """The switch instants (the break points of the schedule in p)."""
+    return [float(v) for v in p.times]
+
+
 def schedule_input(times: Sequence[float], values: Sequence[float],
                    name: str = "schedule") -> Controller:
     """u(t) = values[k] between the increasing switch instants ``times``."""
@@ -44,4 +48,4 @@ def schedule_input(times: Sequence[float], values: Sequence[float],
     if any(b <= a for a, b in zip(times, times[1:], strict=False)) or any(v <= 0 for v in times):
         raise ValueError(f"controller.times must be > 0 and strictly increasing, got {times}")
     p = Params({"n": len(times)}, times=times, values=values)
-    return Controller(name=name, p=p, u=u, observer=None)
+    return Controller(name=name, p=p, u=u, observer=None, breaks=switches)

@@ -29,6 +29,11 @@ Function signatures (arrays are float64, outputs are written in place):
   ``estimated_states``; optional ``stiffness(t, z, d, p) -> float`` — the spectral radius
   of the active dynamics (bounds the RK4 step; default: the constant ``spectral_radius``).
 * Controller ``u(t, xhat, y, p, u)`` — input computed from one observer's estimate.
+* Plant and controller: optional ``breaks(p) -> sequence of float`` — the instants where
+  the component's time dependence jumps (an input schedule's switches, a ramp's corners),
+  from its own parameters. The engine ends a step exactly at each one, evaluates the step
+  that ends there with the values just before it (left limit) and the rest after it
+  (right-continuous), as at noise samples (:mod:`hgo.engine.kernel_template`).
 
 Indices a component reads (``reads_outputs``, ``reads_inputs``, ``reads_estimate``) are
 declared, and :class:`hgo.engine.system.System` checks them against the plant when it is
@@ -156,6 +161,13 @@ def _param_vector(values: np.ndarray, spec: Params | None) -> ParamVector:
     return vec
 
 
+def named(component, values: np.ndarray):
+    """``values`` (a member's slice of the flat vector, say) answering to the names of
+    ``component``'s parameters; as they are for a positional component."""
+    spec = component.params
+    return values if spec is None else _param_vector(values, spec)
+
+
 def params_of(component) -> Params | None:
     """The :class:`Params` of a component (None: positional ``p``)."""
     return getattr(component.p, "spec", None)
@@ -230,6 +242,7 @@ class Plant(Named):
     h: object
     output_state: int = 0
     spectral_radius: float = 0.0  # of df/dx, bounds the explicit step (RK4 stability)
+    breaks: object = None  # optional ``breaks(p)``: instants where f or h jump in t
 
     @property
     def nx(self) -> int:
@@ -283,3 +296,5 @@ class Controller(Named):
     # writes the plant's inputs, so the plant must have at least one
     reads_outputs: list[int] = field(default_factory=list)
     reads_estimate: list[int] = field(default_factory=list)
+    # optional ``breaks(p)``: instants where ``u`` jumps in t (or its slope has a corner)
+    breaks: object = None

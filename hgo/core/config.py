@@ -94,8 +94,9 @@ class EnsembleConf:
 
     size: int = 0
     seed: int = 0
-    vary: dict[str, Any] = field(default_factory=dict)
-    grid: dict[str, Any] = field(default_factory=dict)
+    # Optional: ``ensemble.vary=null`` clears a preset's (``={}`` merges, keeping it)
+    vary: dict[str, Any] | None = field(default_factory=dict)
+    grid: dict[str, Any] | None = field(default_factory=dict)
     shard: str | None = None
     reports: dict[str, Any] = field(default_factory=dict)
 
@@ -116,8 +117,72 @@ class RecordingConf:
     max_rows: int = 16384
 
 
+#: Values a YAML file may expand to through its aliases (``*name``): each alias is
+#: deep-copied by OmegaConf, so nested anchors (a "billion laughs") grow exponentially.
+MAX_ALIAS_VALUES = 100_000
+
+
+def _expanded_size(node, memo: dict[int, int], limit: int) -> int:
+    """Number of YAML nodes of ``node`` once every alias is expanded (stops above limit)."""
+    import yaml
+
+    key = id(node)
+    if key not in memo:
+        memo[key] = 1  # (a recursive alias counts once instead of looping)
+        size = 1
+        if isinstance(node, yaml.MappingNode):
+            children = [n for pair in node.value for n in pair]
+        elif isinstance(node, yaml.SequenceNode):
+            children = node.value
+        else:
+            children = []
+        for child in children:
+            size += _expanded_size(child, memo, limit)
+            if size > limit:
+                break
+        memo[key] = size
+    return memo[key]
+
+
+def bound_yaml_aliases() -> None:
+    """Make OmegaConf's YAML loader (used by Hydra for every config file, a user's preset
+    included) refuse a file whose aliases expand to more than :data:`MAX_ALIAS_VALUES`
+    values, with its file and line (idempotent)."""
+    import omegaconf._utils as utils
+    import yaml
+
+    original = utils.get_yaml_loader
+    if getattr(original, "hgo_bounded", False):
+        return
+
+    def get_yaml_loader():
+        base = original()
+
+        class BoundedLoader(base):
+            def compose_document(self):
+                self.hgo_aliases = 0
+                node = super().compose_document()
+                if self.hgo_aliases and _expanded_size(node, {}, MAX_ALIAS_VALUES) \
+                        > MAX_ALIAS_VALUES:
+                    raise yaml.composer.ComposerError(
+                        None, None, f"its aliases expand to more than {MAX_ALIAS_VALUES:,} "
+                        "values (nested anchors?); refused", node.start_mark)
+                return node
+
+            def compose_node(self, parent, index):
+                if self.check_event(yaml.AliasEvent):
+                    self.hgo_aliases += 1
+                return super().compose_node(parent, index)
+
+        return BoundedLoader
+
+    get_yaml_loader.hgo_bounded = True
+    utils.get_yaml_loader = get_yaml_loader
+
+
 def register_configs() -> None:
     """Store every schema in Hydra's ConfigStore (idempotent)."""
+    bound_yaml_aliases()
     cs = ConfigStore.instance()
     cs.store(group="schema/plant", name="sp_linear", node=SPLinearPlantConf)
     cs.store(group="schema/observer", name="triangular", node=TriangularHGOConf)
@@ -133,8 +198,12 @@ def register_configs() -> None:
 
 
 def conf_dir() -> Path:
-    """The ``conf/`` directory of the repository hgo runs from."""
-    return Path(__file__).resolve().parents[2] / "conf"
+    """hgo's configuration: ``hgo/conf`` inside an installed wheel (setup.py ships the
+    repository's ``conf/`` there), else the ``conf/`` folder of the checkout hgo runs from
+    (an editable install or ``PYTHONPATH``)."""
+    package = Path(__file__).resolve().parents[1]  # hgo/
+    shipped = package / "conf"
+    return shipped if (shipped / "config.yaml").is_file() else package.parent / "conf"
 
 
 def groups(root: Path | None = None) -> dict[str, list[str]]:
@@ -144,9 +213,26 @@ def groups(root: Path | None = None) -> dict[str, list[str]]:
             for d in sorted(root.iterdir()) if d.is_dir()}
 
 
-def compose(overrides: list[str], out_dir: Path | None = None) -> DictConfig:
+def search_path_override(config_dir: str | Path | None) -> list[str]:
+    """The override adding a user's config folder to hgo's (as ``--config-dir`` does for
+    ``hgo run``): its groups and presets join hgo's; where both hold an option of the
+    same name, hgo's wins."""
+    if config_dir is None:
+        return []
+    path = Path(config_dir).resolve()
+    if not path.is_dir():
+        from hgo.core.errors import ConfigError
+
+        raise ConfigError("config_dir", f"'{path}' is not a directory")
+    return [f"hydra.searchpath=[file://{path}]"]
+
+
+def compose(overrides: list[str], out_dir: Path | None = None,
+            config_dir: str | Path | None = None) -> DictConfig:
     """Compose ``conf/config.yaml`` with ``overrides`` as ``experiments/run.py`` would
-    (Hydra's node included); with ``out_dir``, Hydra's run directory is set to it."""
+    (Hydra's node included); with ``out_dir``, Hydra's run directory is set to it; with
+    ``config_dir``, a user's config folder adds its groups and presets
+    (:func:`search_path_override`)."""
     from hydra import compose as hydra_compose
     from hydra import initialize_config_dir
     from hydra.core.global_hydra import GlobalHydra
@@ -154,6 +240,7 @@ def compose(overrides: list[str], out_dir: Path | None = None) -> DictConfig:
 
     register_configs()
     GlobalHydra.instance().clear()
+    overrides = [*search_path_override(config_dir), *overrides]
     with initialize_config_dir(version_base="1.3", config_dir=str(conf_dir())):
         cfg = hydra_compose("config", overrides=overrides, return_hydra_config=True)
     if out_dir is not None:

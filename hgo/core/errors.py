@@ -12,16 +12,27 @@ that line, and :func:`is_config_error` tells which errors are the user's configu
 
 from __future__ import annotations
 
+import errno
+
 import yaml
 
 
-class ConfigError(ValueError):
+class HgoError(Exception):
+    """What hgo's Python API (``hgo.api``) raises: the one line ``hgo run`` prints after
+    ``error:`` (the original exception is its ``__cause__``)."""
+
+
+class ConfigError(HgoError, ValueError):
     """A bad configuration value: ``key`` (full dotted key), ``problem``, ``allowed``."""
 
     def __init__(self, key: str, problem: str, allowed: str | None = None) -> None:
         self.key, self.problem, self.allowed = key, problem, allowed
         text = f"{key}: {problem}" + (f" (allowed: {allowed})" if allowed else "")
         super().__init__(text)
+
+
+class PlainError(Exception):
+    """An error whose message is the whole line :func:`one_line` gives (no type name)."""
 
 
 def _chain(err: BaseException) -> list[BaseException]:
@@ -51,7 +62,8 @@ def _yaml_line(err: yaml.YAMLError) -> str:
     mark = getattr(err, "problem_mark", None)
     where = f"{mark.name}:{mark.line + 1}:{mark.column + 1}" if mark else "YAML"
     problem = getattr(err, "problem", None) or _first_line(str(err))
-    return f"{where}: YAML syntax error: {problem}"
+    kind = "YAML" if isinstance(err, yaml.composer.ComposerError) else "YAML syntax error"
+    return f"{where}: {kind}: {problem}"
 
 
 def _missing_config_line(err) -> str:
@@ -71,8 +83,8 @@ def one_line(err: BaseException) -> str:
 
     chain = _chain(err)
     for e in chain:
-        if isinstance(e, ConfigError):
-            return str(e)
+        if isinstance(e, ConfigError | PlainError):
+            return _first_line(str(e))
     from hydra.errors import OverrideParseException
 
     for e in chain:
@@ -87,6 +99,10 @@ def one_line(err: BaseException) -> str:
             line = _omegaconf_line(e)
             if line:
                 return line
+    for e in chain:
+        if isinstance(e, OSError) and e.errno == errno.ENOSPC:
+            where = e.filename or "device"
+            return f"no space left on {where} ({e.strerror})"
     for e in chain:  # a builder's own message (Hydra wraps it in InstantiationException)
         if type(e) in (ValueError, TypeError, KeyError):
             return _first_line(str(e))

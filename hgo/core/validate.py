@@ -68,13 +68,17 @@ def _check_int(key: str, value, low: int = 0) -> None:
         raise ConfigError(key, f"must be >= {low}, got {value}", f"integers >= {low}")
 
 
+def check_run_name(name) -> None:
+    """``run_name`` is a folder name under ``outputs/``, never a path (``..``, ``a/b``)."""
+    if not isinstance(name, str) or not _RUN_NAME.match(name) or set(name) == {"."}:
+        raise ConfigError("run_name", f"must be a plain name, not a path, got {name!r}",
+                          "letters, digits and _ . + = , - (not only dots)")
+
+
 def check_top(container: Mapping) -> None:
     """``seed``, ``run_name`` and ``ensemble.size``/``ensemble.seed``."""
     _check_int("seed", container.get("seed", 0))
-    name = container.get("run_name", "run")
-    if not isinstance(name, str) or not _RUN_NAME.match(name):
-        raise ConfigError("run_name", f"must be a plain name, got {name!r}",
-                          "letters, digits and _ . + = , -")
+    check_run_name(container.get("run_name", "run"))
     if not isinstance(container.get("resume", False), bool):
         raise ConfigError("resume", f"must be true or false, got {container['resume']!r}")
     ens = container.get("ensemble") or {}
@@ -82,9 +86,79 @@ def check_top(container: Mapping) -> None:
     _check_int("ensemble.seed", ens.get("seed", 0))
 
 
+def _schemas() -> dict:
+    from hgo.core.config import EnsembleConf, MetricsConf, RecordingConf, SolverConf
+
+    return {"solver": SolverConf, "metrics": MetricsConf, "ensemble": EnsembleConf,
+            "recording": RecordingConf}
+
+
+def check_known_keys(container: Mapping) -> None:
+    """The nodes hgo reads itself (solver, metrics, ensemble, recording) hold only their
+    schema's keys: Hydra's ``+``/``++`` skip the schema, so ``+solver.foo=1`` was accepted
+    without a word (the other groups' keys are checked by their factories' signatures)."""
+    from dataclasses import fields
+
+    for group, schema in _schemas().items():
+        node = container.get(group)
+        if not isinstance(node, Mapping):
+            continue
+        allowed = [f.name for f in fields(schema)]
+        for key in node:
+            if key not in allowed:
+                raise ConfigError(f"{group}.{key}", "is not a key of " + group,
+                                  ", ".join(allowed))
+
+
+def check_package_header(container: Mapping) -> None:
+    """An experiment preset without ``# @package _global_`` lands under ``experiment.``,
+    where nothing reads it: its values were silently not applied."""
+    node = container.get("experiment")
+    if isinstance(node, Mapping):
+        keys = ", ".join(list(node)[:6])
+        raise ConfigError("experiment", f"the preset's values ({keys}) are not applied: its "
+                          "file lacks the first line '# @package _global_' (Hydra put them "
+                          "under 'experiment.')", "add '# @package _global_' as the first "
+                          "line of the preset")
+
+
+def task_overrides(cfg: DictConfig) -> list[str]:
+    """The command line's overrides of the run (Hydra's node or HydraConfig), if known."""
+    try:
+        from hydra.core.hydra_config import HydraConfig
+
+        if "hydra" in cfg:
+            return list(cfg.hydra.overrides.task)
+        if HydraConfig.initialized():
+            return list(HydraConfig.get().overrides.task)
+    except Exception:  # noqa: BLE001 - a config composed without Hydra's node
+        pass
+    return []
+
+
+def check_empty_dict_overrides(cfg: DictConfig, container: Mapping) -> None:
+    """``ensemble.vary={}`` / ``ensemble.grid={}`` merge nothing (Hydra merges mappings):
+    the preset's vary was kept. Refused, pointing at ``=null``, which clears them. (Other
+    mappings are left alone: ``figures={}`` is used by sweeps that keep their figures.)"""
+    for override in task_overrides(cfg):
+        key, _, value = override.lstrip("+~").partition("=")
+        if key not in ("ensemble.vary", "ensemble.grid") or value.strip() not in ("{}", "{ }"):
+            continue
+        node = container
+        for part in key.split("."):
+            node = node.get(part) if isinstance(node, Mapping) else None
+        if isinstance(node, Mapping) and node:
+            raise ConfigError(key, f"'{key}={{}}' does not clear it: Hydra merges mappings, "
+                              f"so it keeps {', '.join(list(node)[:4])}",
+                              f"{key}=null to clear it")
+
+
 def check_values(cfg: DictConfig) -> dict:
     """All value checks of the composed config; returns it resolved (without ``hydra``)."""
     container = job_container(cfg)
+    check_package_header(container)
+    check_known_keys(container)
+    check_empty_dict_overrides(cfg, container)
     check_numbers(container)
     check_top(container)
     return container
@@ -132,3 +206,33 @@ def check_cost(n_rows: int, n_columns: int, n_noise: int, n_steps: float,
                           f"integration steps, over solver.max_steps = {max_steps:.3g}",
                           "raise solver.h_max (or noise.period, solver.dt_out for rk4), "
                           "lower solver.t_end, or raise solver.max_steps")
+
+
+#: Memory of one ensemble member beside its noise and trajectory (its config node, System,
+#: parameters, metric rows): 4-30 KB measured (sp_ensemble 4.1 KB, ak_tradeoff_grid
+#: 9.4 KB, sp_fig3_grid 30 KB), so 4 KB is a lower estimate. Building a member took
+#: ~0.6 ms (sp_ensemble, 2,000 members in 1.27 s, load ~6).
+MEMBER_BYTES = 4096
+MEMBER_BUILD_SECONDS = 6e-4
+
+
+def check_ensemble_cost(n_members: int, member_bytes: int, member_steps: float,
+                        max_steps: int, memory: int | None = None,
+                        key: str = "ensemble.size") -> None:
+    """Refuse an ensemble whose members, estimated before any is made, need more than half
+    the free memory or more integration steps in all than ``solver.max_steps``."""
+    memory = free_memory() if memory is None else memory
+    need = n_members * (MEMBER_BYTES + member_bytes)
+    steps = n_members * member_steps
+    estimate = (f"the ensemble has {n_members:.4g} members (grid points x ensemble.size, "
+                f"then the shard): at least ~{need / 2 ** 30:.3g} GiB, {steps:.3g} "
+                f"integration steps and ~{n_members * MEMBER_BUILD_SECONDS:.3g} s to build "
+                "the members")
+    change = ("lower ensemble.size or shorten the lists of ensemble.grid, or split the "
+              "members across jobs with ensemble.shard=i/N")
+    if need > memory // 2:
+        raise ConfigError(key, f"{estimate}, over half the free memory "
+                          f"({memory / 2 ** 30:.3g} GiB)", change)
+    if steps > max_steps:
+        raise ConfigError(key, f"{estimate}, over solver.max_steps = "
+                          f"{max_steps:.3g}", change + ", or raise solver.max_steps")

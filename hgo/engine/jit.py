@@ -18,8 +18,10 @@ kernel guarantees (the parents are the integrator's own work arrays).
 from __future__ import annotations
 
 import time
+import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
+from pathlib import Path
 
 import numba
 from numba.core import types
@@ -27,6 +29,49 @@ from numba.extending import intrinsic, register_jitable
 from numba.np import arrayobj
 
 kernel_helper = numba.njit(cache=True, error_model="numpy")
+
+_WARNED_DAMAGED: list[bool] = []
+
+
+def _remove_entry(index_path: str) -> None:
+    index = Path(index_path)
+    stem = index.name.removesuffix(".nbi")
+    for entry in index.parent.glob(f"{stem}*"):
+        if entry.suffix in (".nbi", ".nbc"):
+            entry.unlink(missing_ok=True)
+
+
+def _tolerant(read, missing):
+    """numba's cache read ``read``, where a damaged file (garbage, truncated) is a cache miss:
+    the entry is deleted (one warning per process) and the function recompiled. Without
+    this, garbage in hgo's own cache (``hgo/**/__pycache__/*.nbi|nbc`` of its
+    ``kernel_helper`` functions called from Python, e.g. the decimated recording) failed the
+    run after the simulation, losing its metrics; kernels were already repaired."""
+    def wrapper(self, *args):
+        try:
+            return read(self, *args)
+        except Exception as err:  # noqa: BLE001 - any error reading a cache file: damaged
+            if not _WARNED_DAMAGED:
+                warnings.warn(f"hgo: a numba cache entry is damaged ({Path(self._index_path).name}"
+                              f": {type(err).__name__}); deleting it and recompiling",
+                              RuntimeWarning, stacklevel=2)
+                _WARNED_DAMAGED.append(True)
+            _remove_entry(self._index_path)
+            return missing
+    wrapper.hgo_tolerant = True
+    return wrapper
+
+
+def tolerate_damaged_cache() -> None:
+    """Install :func:`_tolerant` on numba's cache file reader (idempotent)."""
+    from numba.core.caching import IndexDataCacheFile
+
+    if not getattr(IndexDataCacheFile._load_index, "hgo_tolerant", False):
+        IndexDataCacheFile._load_index = _tolerant(IndexDataCacheFile._load_index, {})
+        IndexDataCacheFile.load = _tolerant(IndexDataCacheFile.load, None)
+
+
+tolerate_damaged_cache()
 
 
 def record_helper(fn):

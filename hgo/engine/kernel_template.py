@@ -10,8 +10,22 @@ compiled with numba (or run as plain Python when a user component cannot be comp
 Never imported on its own.
 
 Time handling (hybrid systems): no step straddles a noise sample instant k*noise_dt
-(the held noise jumps there). Discrete logic (``system_update``: gain switches, timers,
-saturations) runs after every step, so switching instants are step boundaries too.
+(the held noise jumps there) or a break point (``breaks``: the sorted instants where the
+plant or the controller declares a jump in t, e.g. an input schedule's switches). A step
+that ends at a break point evaluates the components at most at a time just below it
+(``_left_limit``: the left piece of the jump, for every stage, so the jump never enters
+the step's error estimate); after it, the right-hand side is evaluated afresh (no
+first-same-as-last reuse), the adaptive step size restarts as at t = 0 (Hairer's
+starting step: the step before the jump says nothing of the dynamics after it), and
+everything at the instant itself (the discrete update, the output samples) sees the
+values after the jump: right-continuous, as at noise samples.
+Events within ``tol`` of each other are one instant (a break point's exact value wins).
+Discrete logic (``system_update``: gain switches, timers, saturations) runs after every
+step, so switching instants are step boundaries too.
+
+Output samples are taken at their own instants k*dt_out (the last one at t_end): an
+instant inside a step from the continuous extension (RK4: a segment end), an instant
+within ``tol`` of an event at the event, after it.
 
 * ``rk4``: classical RK4. The horizon is also cut at every output instant k*dt_out, and
   each segment is covered by equal substeps no longer than the step cap: ``h_max`` and
@@ -22,8 +36,8 @@ saturations) runs after every step, so switching instants are step boundaries to
   :mod:`hgo.engine.tableau`): an embedded Runge–Kutta pair with error control (rtol,
   atol), first-same-as-last, and its continuous extension: outputs between the ends of
   a step are interpolated, so the output grid does not cut the steps (only the noise
-  instants and the horizon do). Outputs that fall on a step end are taken after the
-  step's discrete update (and after the noise sample change when they coincide with one).
+  instants, the break points and the horizon do). An output instant that is exactly a
+  step's end is the next step's start (after the discrete update).
 
 Status codes: 0 ok, 1 non-finite state, 2 state beyond ``bound``, 3 step-size underflow,
 4 non-finite step size or error norm (a NaN/inf in the right-hand side or its
@@ -97,6 +111,37 @@ def _start(z, d, m, P, w, y, u, xh, sq, prev, acc, win, noise, bound, t_end, dt_
 
 
 @ijit
+def _left_limit(t_event):
+    """A time 2-4 ulps below ``t_event`` (> 0): where a step ending at a break point
+    evaluates the components, so that they give the left piece of their jump."""
+    return t_event - abs(t_event) * 4.440892098500626e-16
+
+
+@ijit
+def _next_event(t_noise, breaks, k_break, t_end, tol):
+    """The end of the next segment: the next noise instant ``t_noise`` or break point
+    ``breaks[k_break]`` (a break point within tol of the noise instant: its own exact
+    value), or t_end within tol; and the stage-time limit of the steps of the segment
+    (just below a break point, inf otherwise)."""
+    t_seg = t_noise
+    t_lim = math.inf
+    if k_break < breaks.shape[0] and breaks[k_break] <= t_seg + tol:
+        t_seg = breaks[k_break]
+        t_lim = _left_limit(t_seg)
+    if t_seg >= t_end - tol:
+        return t_end, math.inf
+    return t_seg, t_lim
+
+
+@ijit
+def _pass_breaks(breaks, k_break, t, tol):
+    """The index of the first break point after t (those within tol of t are at t)."""
+    while k_break < breaks.shape[0] and breaks[k_break] <= t + tol:
+        k_break += 1
+    return k_break
+
+
+@ijit
 def _emit(k, t, z, d, m, P, w, y, u, xh, Z, D, Y, M, U, XH):
     """Output sample k at time t: the signals, recorded when there is a record. Not a
     point of the window metrics: they are made from the integration's own points only,
@@ -160,17 +205,19 @@ def _step_end(t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, t_win0, tol):
 
 
 @pjit
-def integrate_ensemble(Z0, D0, PP, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab,
+def integrate_ensemble(Z0, D0, PP, noise, noise_dt, BR, t_end, dt_out, h_max, rtol, atol, stab,
                        RHO, bound, t_window, ACC, STATUS, T_STOP, N_REC, ZR, DR, YR, MR, UR,
                        XHR, ctl):
-    """Integrate many runs in parallel (one per row of Z0, D0, PP, noise, RHO: each member's
-    own constant spectral radius). Records (ZR..XHR, (members, n_out, k)) are filled only
-    when they have rows; otherwise metrics only. ``ctl`` is shared and only read."""
+    """Integrate many runs in parallel (one per row of Z0, D0, PP, noise, BR: each member's
+    break points, padded with inf, RHO: each member's own constant spectral radius).
+    Records (ZR..XHR, (members, n_out, k)) are filled only when they have rows; otherwise
+    metrics only. ``ctl`` is shared and only read."""
     n_members = Z0.shape[0]
     for i in prange(n_members):
         z = Z0[i].copy()
         d = D0[i].copy()
-        st, n_rec, t_stop = integrate(z, d, PP[i], noise[i], noise_dt, t_end, dt_out, h_max,
+        st, n_rec, t_stop = integrate(z, d, PP[i], noise[i], noise_dt, BR[i], t_end, dt_out,
+                                      h_max,
                                       rtol, atol, stab, RHO[i], bound, t_window, ZR[i],
                                       DR[i], YR[i], MR[i], UR[i], XHR[i], ACC[i], ctl)
         STATUS[i] = st
@@ -180,7 +227,8 @@ def integrate_ensemble(Z0, D0, PP, noise, noise_dt, t_end, dt_out, h_max, rtol, 
 
 # --- section: rk4 ---
 @ijit
-def _rk4_step(t, h, z, d, m, P, w, k1, k2, k3, k4, zt):
+def _rk4_step(t, h, z, d, m, P, w, k1, k2, k3, k4, zt, t_lim):
+    """One RK4 step; the last stage at min(t + h, t_lim) (t_lim: below a break point)."""
     n = NZ  # a constant of the header: loops unrolled
     system_rhs(t, z, d, m, P, w, k1)
     for i in range(n):
@@ -191,15 +239,15 @@ def _rk4_step(t, h, z, d, m, P, w, k1, k2, k3, k4, zt):
     system_rhs(t + 0.5 * h, zt, d, m, P, w, k3)
     for i in range(n):
         zt[i] = z[i] + h * k3[i]
-    system_rhs(t + h, zt, d, m, P, w, k4)
+    system_rhs(min(t + h, t_lim), zt, d, m, P, w, k4)
     h6 = h / 6.0
     for i in range(n):
         z[i] += h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
 
 
 @jit
-def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, rho_const,
-              bound, t_window, Z, D, Y, M, U, XH, acc, ctl):
+def integrate(z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol, stab,
+              rho_const, bound, t_window, Z, D, Y, M, U, XH, acc, ctl):
     """Integrate one run (RK4). Returns (status, number of output samples, stop time).
 
     One compiled function (no wrapper around an inner one): every extra level of numba
@@ -223,6 +271,7 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
                                         bound, t_end, dt_out, t_window, Z, D, Y, M, U, XH)
     if status != 0:
         return status, 1, t
+    k_break = _pass_breaks(breaks, 0, t, tol)
     n_steps = 0
     max_steps = ctl[1]
     for k_out in range(1, n_out):
@@ -231,10 +280,16 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
             t_noise = (k_noise + 1) * noise_dt
             if abs(t_noise - t_out) <= tol:
                 t_noise = t_out  # coincident events: one boundary, not a sliver of a step
-            t_next = min(t_out, t_noise)
+            t_next, t_lim = _next_event(min(t_out, t_noise), breaks, k_break, t_end, tol)
+            if t_lim < math.inf:  # a break point ends the segment: its instant is exact
+                if abs(t_noise - t_next) <= tol:
+                    t_noise = t_next
+                if abs(t_out - t_next) <= tol:
+                    t_out = t_next
             at_window = t < t_win0 - tol and t_win0 < t_next - tol
             if at_window:  # the window's first point is a step end
                 t_next = t_win0
+                t_lim = math.inf
             n_sub = 0  # substeps left in this segment, planned with the stiffness rho_plan
             rho_plan = -1.0
             h = 0.0
@@ -245,7 +300,7 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
                     n_sub = max(1, math.ceil((t_next - t) / cap - 1e-9))
                     h = (t_next - t) / n_sub
                     rho_plan = rho
-                _rk4_step(t, h, z, d, m, P, w, k1, k2, k3, k4, zt)
+                _rk4_step(t, h, z, d, m, P, w, k1, k2, k3, k4, zt, t_lim)
                 n_sub -= 1
                 t = t_next if n_sub <= 0 else t + h
                 system_update(t, z, d, m, P, w)
@@ -261,12 +316,13 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
             t = t_next
             if at_window:
                 continue
-            if t_noise <= t_out:
+            k_break = _pass_breaks(breaks, k_break, t, tol)
+            if t_noise <= t + tol:
                 k_noise += 1
                 idx = min(k_noise, n_noise - 1)
                 for i in range(NY):
                     m[i] = noise[idx, i]
-            if t_noise >= t_out:
+            if t_out <= t + tol:
                 break
         _emit(k_out, t, z, d, m, P, w, y, u, xh, Z, D, Y, M, U, XH)
     return 0, n_out, t
@@ -277,7 +333,7 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
 # (N_K stages rows, N_F dense-output rows, FSAL_STAGE, ERR_EXP) and its functions
 # _trial, _dense_prep, _dense_eval come before this section (hgo.engine.tableau).
 @jit
-def _initial_step(t, z, d, m, P, w, k1, k2, zt, rtol, atol, h_max):
+def _initial_step(t, z, d, m, P, w, k1, k2, zt, rtol, atol, h_max, t_lim):
     """Hairer's starting step (Solving ODEs I, II.4) from f0 = k1; uses 1 evaluation.
 
     The RMS norms are written out here (not a helper): one function less to compile."""
@@ -293,7 +349,7 @@ def _initial_step(t, z, d, m, P, w, k1, k2, zt, rtol, atol, h_max):
     h0 = min(h0, h_max)
     for i in range(NZ):
         zt[i] = z[i] + h0 * k1[i]
-    system_rhs(t + h0, zt, d, m, P, w, k2)
+    system_rhs(min(t + h0, t_lim), zt, d, m, P, w, k2)
     d2 = 0.0
     for i in range(NZ):
         d2 += ((k2[i] - k1[i]) / (atol + rtol * abs(z[i]))) ** 2
@@ -325,8 +381,8 @@ def _window_step(t, h, a, b, z, d, m, P, w, y, u, xh, sq, acc, F, zo):
 
 
 @jit
-def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, rho_const,
-              bound, t_window, Z, D, Y, M, U, XH, acc, ctl):
+def integrate(z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol, stab,
+              rho_const, bound, t_window, Z, D, Y, M, U, XH, acc, ctl):
     """Integrate one run (adaptive). Returns (status, number of output samples, stop time).
 
     One compiled function, as for RK4 (``stab`` and ``rho_const`` are unused here).
@@ -355,21 +411,25 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
     if status != 0:
         return status, 1, t
     k_out = np.int64(1)
+    k_break = _pass_breaks(breaks, 0, t, tol)
     n_steps = 0  # trials, accepted or rejected
     max_steps = ctl[1]
     system_rhs(t, z, d, m, P, w, k1)
-    h = _initial_step(t, z, d, m, P, w, k1, zo, zt, rtol, atol, h_max)
-    fsal = True  # k1 holds f(t, z) for the current noise sample and discrete state
+    t_seg, t_lim = _next_event(noise_dt, breaks, k_break, t_end, tol)
+    h = _initial_step(t, z, d, m, P, w, k1, zo, zt, rtol, atol, h_max, t_lim)
+    fsal = True  # k1 holds f(t, z) for the current noise sample, discrete state and piece
     retried = False  # the step being tried follows a rejection
     nonfinite = False  # the last trial's error norm was NaN/inf
+    restart = False  # a jump: the step size is chosen afresh (the derivative jumped too)
     while k_out < n_out:
-        t_seg = (k_noise + 1) * noise_dt
-        if t_seg >= t_end - tol:
-            t_seg = t_end
+        t_seg, t_lim = _next_event((k_noise + 1) * noise_dt, breaks, k_break, t_end, tol)
         while True:  # steps inside [t, t_seg]
             if not fsal:
                 system_rhs(t, z, d, m, P, w, k1)
                 fsal = True
+            if restart:
+                h = _initial_step(t, z, d, m, P, w, k1, zo, zt, rtol, atol, h_max, t_lim)
+                restart = False
             hh = min(h, h_max)
             # a step within tol of the segment end takes the rest of the segment, unless the
             # step is itself shorter than 100 tol: a rejected last step (a discontinuity at
@@ -384,7 +444,7 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
                 return 5, k_out, t
             if ctl[0] != 0:
                 return 6, k_out, t
-            err = _trial(t, hh, z, d, m, P, w, K, zt, rtol, atol)
+            err = _trial(t, hh, z, d, m, P, w, K, zt, rtol, atol, t_lim)
             nonfinite = not math.isfinite(err)  # the underflow it leads to has this cause
             if not err <= 1.0:  # rejected (or non-finite)
                 h = hh * (0.2 if nonfinite else max(0.2, 0.9 * err ** ERR_EXP))
@@ -397,7 +457,10 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
                 prepared = True
                 _window_step(t, hh, max(t, t_win0), t_new, z, d, m, P, w, y, u, xh, sq, acc,
                              F, zo)
-            while k_out < n_out and k_out * dt_out < t_new - tol:  # outputs inside the step
+            # outputs inside the step, at their instants (the continuous extension); those
+            # within tol of the event that ends the segment are taken after the event
+            t_stop_out = t_seg - tol if last else t_new
+            while k_out < n_out and k_out * dt_out < t_stop_out:
                 t_o = k_out * dt_out
                 if record:
                     if not prepared:
@@ -434,16 +497,18 @@ def integrate(z, d, P, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, stab, 
             h = max(h, hh * fac) if last else hh * fac
             if last:
                 break
-            while k_out < n_out and k_out * dt_out <= t + tol:  # an output on the step end
-                _emit(k_out, t, z, d, m, P, w, y, u, xh, Z, D, Y, M, U, XH)
-                k_out += 1
-        if t_seg < t_end:  # the next noise sample holds from here on
-            k_noise += 1
-            idx = min(k_noise, n_noise - 1)
-            for i in range(NY):
-                m[i] = noise[idx, i]
-            fsal = False
-        while k_out < n_out and k_out * dt_out <= t + tol:
+        if t_seg < t_end:
+            if (k_noise + 1) * noise_dt <= t_seg + tol:  # the next noise sample holds
+                k_noise += 1
+                idx = min(k_noise, n_noise - 1)
+                for i in range(NY):
+                    m[i] = noise[idx, i]
+                fsal = False
+            if k_break < breaks.shape[0] and breaks[k_break] <= t_seg + tol:  # a jump
+                k_break = _pass_breaks(breaks, k_break, t_seg, tol)
+                fsal = False
+                restart = True
+        while k_out < n_out and k_out * dt_out <= t + tol:  # at the event, after it
             _emit(k_out, t, z, d, m, P, w, y, u, xh, Z, D, Y, M, U, XH)
             k_out += 1
     return 0, n_out, t

@@ -3,12 +3,14 @@
 Integrator settings (:class:`SolverSettings`):
 
 * ``method="rk4"``: classical RK4, equal substeps of at most ``h_max`` inside every
-  segment between events (noise samples, output instants). The step is also capped at
-  ``stability_safety * 2.785 / rho``, where ``rho`` is the largest spectral radius the
-  components declare (2.785 is RK4's stability limit on the negative real axis): the
-  margin of a stiff high-gain observer is computed, not guessed.
+  segment between events (noise samples, break points, output instants). The step is
+  also capped at ``stability_safety * 2.785 / rho``, where ``rho`` is the largest
+  spectral radius the components declare (2.785 is RK4's stability limit on the negative
+  real axis): the margin of a stiff high-gain observer is computed, not guessed.
 * ``method="dopri5"``: Dormand–Prince 5(4) with error control (``rtol``, ``atol``) and
-  steps clipped to the noise instants; outputs interpolated (dense output).
+  steps clipped to the noise instants and the break points (the instants where a plant
+  or controller declares a jump, :meth:`~hgo.engine.system.System.breaks`); outputs
+  interpolated (dense output) at their exact instants k * dt_out.
 * ``method="dop853"``: Hairer's DOP853 (8th order, 7th-order dense output), the same
   event handling; fewer steps than ``dopri5`` at tight tolerances (about half the right-
   hand-side evaluations of problem B at equal accuracy, ``benchmarks/``).
@@ -27,14 +29,17 @@ from __future__ import annotations
 
 import math
 import pickle
+import sys
 import threading
 import warnings
 from dataclasses import dataclass, replace
+from pathlib import Path
 
 import numpy as np
 
 from hgo.core.errors import ConfigError
 from hgo.engine.codegen import (
+    compiled_first,
     damaged_cache_file,
     forget_kernel,
     load_kernel,
@@ -171,6 +176,9 @@ def _kernel(system: System, method: str):
         return load_kernel(system, compiled=False, method=method)
 
 
+STOP_NOTICE_S = 0.5  # a kernel that has not stopped this long after Ctrl-C is compiling
+
+
 def _interruptible(fn, args: tuple, ctl: np.ndarray):
     """``fn(*args)`` in a worker thread; Ctrl-C in the main thread sets ``ctl[0]``, which the
     kernel checks after every step: it returns (status 6) within one step, and its
@@ -193,7 +201,11 @@ def _interruptible(fn, args: tuple, ctl: np.ndarray):
             pass
     except KeyboardInterrupt:
         ctl[0] = 1
-        done.wait()
+        if not done.wait(STOP_NOTICE_S):  # the kernel checks ctl each step: compiling
+            sys.stderr.write("interrupted: stopping once numba has compiled the kernel "
+                             "(Ctrl-C again to stop at once)\n")
+            sys.stderr.flush()
+            done.wait()
     if "error" in out:
         raise out["error"]
     return out["value"]
@@ -219,7 +231,7 @@ def _call_repairing_cache(system: System, method: str, module, fname: str, args:
     warned = False
     for _ in range(MAX_CACHE_REPAIRS):
         try:
-            return _interruptible(getattr(module, fname), args, args[-1])
+            return _interruptible(_first_compiled(module, fname), args, args[-1])
         except CACHE_ERRORS as err:
             damaged = damaged_cache_file(err)
             if damaged is None:
@@ -232,7 +244,13 @@ def _call_repairing_cache(system: System, method: str, module, fname: str, args:
             remove_cache_entry(damaged)
             forget_kernel(module)
             module = _kernel(system, method)
-    return _interruptible(getattr(module, fname), args, args[-1])
+    return _interruptible(_first_compiled(module, fname), args, args[-1])
+
+
+def _first_compiled(module, fname: str):
+    """The kernel function, compiled under its cache entry's lock on its first call
+    (:func:`hgo.engine.codegen.compiled_first`): no two processes compile it at once."""
+    return compiled_first(getattr(module, fname), Path(module.__file__))
 
 
 def _reason(message: str) -> str:
@@ -301,9 +319,11 @@ def simulate(system: System, solver: SolverSettings, noise: Noise,
     d = system.d0()
     t, *rec = _record_arrays(n_out, (1, system.nz, system.nd, ny, ny, nu, system.nxh))
     acc = np.zeros(system.n_acc())
+    breaks = system.breaks(P, solver.t_end)
     status, n_rec, t_stop = _call(
         system, solver.method, "integrate", z, d, P,
-        np.ascontiguousarray(noise.samples, float), *args, *rec, acc, _control(solver))
+        np.ascontiguousarray(noise.samples, float), args[0], breaks, *args[1:], *rec, acc,
+        _control(solver))
     t = t[:n_rec, 0]
     t[:] = np.arange(n_rec) * solver.dt_out
     Z, D, Y, M, U, XH = (a[:n_rec] for a in rec)
@@ -454,14 +474,25 @@ def simulate_ensemble(system: System, solver: SolverSettings, noise: list[Noise]
     n_out = int(round(solver.t_end / solver.dt_out)) + 1 if record else 0
     ny, nu = samples.shape[2], len(system.plant.input_names)
     recs = [np.zeros((n, n_out, k)) for k in (system.nz, system.nd, ny, ny, nu, system.nxh)]
-    _call(system, solver.method, "integrate_ensemble", z0, d0, params, samples, *args, acc,
-          status, t_stop, n_rec, *recs, _control(solver))
+    _call(system, solver.method, "integrate_ensemble", z0, d0, params, samples, args[0],
+          member_breaks(system, params, solver.t_end), *args[1:], acc, status, t_stop, n_rec,
+          *recs, _control(solver))
     out = {"acc": acc, "status": status, "t_stop": t_stop}
     if record:
         t = np.arange(n_out) * solver.dt_out
         out["trajectories"] = [
             Trajectory(t[:k], *(r[i, :k] for r in recs), int(status[i]), float(t_stop[i]),
                        acc[i]) for i, k in enumerate(n_rec)]
+    return out
+
+
+def member_breaks(system: System, params: np.ndarray, t_end: float) -> np.ndarray:
+    """Each member's break points (:meth:`System.breaks` of its parameter row), one row per
+    member padded with inf (the kernel ignores break points beyond t_end)."""
+    rows = [system.breaks(p, t_end) for p in params]
+    out = np.full((len(rows), max([len(r) for r in rows], default=0)), np.inf)
+    for i, row in enumerate(rows):
+        out[i, :len(row)] = row
     return out
 
 

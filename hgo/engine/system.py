@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from hgo.core.components import Controller, Observer, Plant
+from hgo.core.components import Controller, Observer, Plant, named
 from hgo.core.errors import ConfigError
 
 
@@ -147,6 +147,17 @@ class System:
             cols.append(a + est.index(self.plant.output_state)
                         if self.plant.output_state in est else -1)
         return np.array(cols, dtype=np.int64)
+
+    def breaks(self, P: np.ndarray, t_end: float) -> np.ndarray:
+        """The sorted instants in (0, t_end) where the plant or the controller declares a
+        jump (their ``breaks(p)`` hooks, with their slices of the parameter vector ``P``):
+        the integrators end a step at each one."""
+        parts = [(self.plant, self.p_slices[0])]
+        if self.controller is not None:
+            parts.append((self.controller, self.p_slices[-1]))
+        found = [float(b) for comp, (a, e) in parts if comp.breaks is not None
+                 for b in comp.breaks(named(comp, P[a:e]))]
+        return np.array(sorted({b for b in found if 0.0 < b < t_end}), float)
 
     def spectral_radius(self) -> float:
         return max([self.plant.spectral_radius] + [o.spectral_radius for o in self.observers])

@@ -14,9 +14,11 @@ the same steps by the same formulas as ``solve_ivp`` with the same method:
 :func:`method_source` returns, for one method, the constants and the three functions the
 generic loop of ``kernel_template``'s ``adaptive`` section calls:
 
-* ``_trial(t, h, z, d, m, P, w, K, zt, rtol, atol)``: one trial step from ``(t, z)``
-  with stage 0 of ``K`` holding ``f(t, z)``; the new state goes to ``zt``, ``f(t+h, zt)``
-  to stage ``FSAL_STAGE``; returns the error norm (<= 1: accept).
+* ``_trial(t, h, z, d, m, P, w, K, zt, rtol, atol, t_lim)``: one trial step from
+  ``(t, z)`` with stage 0 of ``K`` holding ``f(t, z)``; the new state goes to ``zt``,
+  ``f(t+h, zt)`` to stage ``FSAL_STAGE``; returns the error norm (<= 1: accept). Every
+  stage time is clamped to ``t_lim`` (just below a break point that ends the step: the
+  step sees the values before the jump; ``inf`` otherwise).
 * ``_dense_prep(t, h, z, zt, d, m, P, w, K, F, scratch)``: coefficients ``F`` of the
   continuous extension of the accepted step ``z -> zt``.
 * ``_dense_eval(th, z, F, zo)``: the state at ``t + th*h`` (0 < th < 1) into ``zo``.
@@ -66,8 +68,10 @@ def _sums(name: str, W: np.ndarray, indent: str) -> Code:
     return constants, lines
 
 
-def _stages(A: np.ndarray, C: np.ndarray, first: int, stop: int, target: str) -> Code:
-    """Stages ``first .. stop-1``: ``target = z + h*sum_j A[s,j] K_j``, then f into K_s.
+def _stages(A: np.ndarray, C: np.ndarray, first: int, stop: int, target: str,
+            time: str = "t + c * h") -> Code:
+    """Stages ``first .. stop-1``: ``target = z + h*sum_j A[s,j] K_j``, then f into K_s at
+    the time ``time``.
 
     One loop over the stages whose body picks the stage's sum and then evaluates the
     right-hand side: the right-hand side is inlined once instead of once per stage."""
@@ -81,7 +85,7 @@ def _stages(A: np.ndarray, C: np.ndarray, first: int, stop: int, target: str) ->
                   "            for i in range(NZ):",
                   *sums,
                   f"                {target}[i] = z[i] + h * a0"]
-    lines.append(f"        system_rhs(t + c * h, {target}, d, m, P, w, "
+    lines.append(f"        system_rhs({time}, {target}, d, m, P, w, "
                  "view(K, s * NZ, (s + 1) * NZ))")
     return constants, lines
 
@@ -89,18 +93,20 @@ def _stages(A: np.ndarray, C: np.ndarray, first: int, stop: int, target: str) ->
 def _trial(A: np.ndarray, B: np.ndarray, C: np.ndarray, n_stages: int, norm: Code) -> Code:
     """``_trial``: the stages, the solution, then ``norm`` (lines ending in ``return``
     the error norm; written into the function rather than called: one function less to
-    compile)."""
-    constants, stages = _stages(A, C, 1, n_stages, "zt")
+    compile). Stage times are clamped to ``t_lim``: a step that ends at a break point
+    evaluates the right-hand side at most there, from the left (see kernel_template)."""
+    constants, stages = _stages(A, C, 1, n_stages, "zt", "min(t + c * h, t_lim)")
     consts, sums = _sums("B", B[None, :], "        ")
     return constants + consts + norm[0], [
         "@jit",
-        "def _trial(t, h, z, d, m, P, w, K, zt, rtol, atol):",
+        "def _trial(t, h, z, d, m, P, w, K, zt, rtol, atol, t_lim):",
         '    """One trial step (see hgo.engine.tableau); returns the error norm."""',
         *stages,
         "    for i in range(NZ):",
         *sums,
         "        zt[i] = z[i] + h * a0",
-        f"    system_rhs(t + h, zt, d, m, P, w, view(K, {n_stages} * NZ, {n_stages + 1} * NZ))",
+        f"    system_rhs(min(t + h, t_lim), zt, d, m, P, w, "
+        f"view(K, {n_stages} * NZ, {n_stages + 1} * NZ))",
         *norm[1]]
 
 

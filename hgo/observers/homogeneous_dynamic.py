@@ -62,6 +62,7 @@ import numpy as np
 from hgo.core.components import Observer, Params, user_function
 from hgo.engine.jit import kernel_helper
 from hgo.plants.contois import (
+    check_hbar,
     clip,
     cubic,
     eta2_of_x,
@@ -215,9 +216,9 @@ def homogeneous_dynamic_hgo(name: str, rate_bound: str = "omega2", p: float = 0.
     _check(correction in CORRECTIONS, f"{key}.correction: '{correction}' not in "
            f"{list(CORRECTIONS)}")
     _check(0.0 <= p < 1.0, f"{key}.p must be in [0, 1/(n-1)) = [0, 1) (Theorem 1), got {p}")
-    for k, v in (("b", b), ("phi1", phi1), ("phi2", phi2), ("phi3", phi3), ("ell", ell),
-                 ("hbar", hbar)):
+    for k, v in (("b", b), ("phi1", phi1), ("phi2", phi2), ("phi3", phi3), ("ell", ell)):
         _check(math.isfinite(v) and v > 0, f"{key}.{k} must be > 0, got {v}")
+    check_hbar(f"{key}.hbar", hbar)
     _check(0.0 < u_min < u_max < 1.0, f"{key}: need 0 < u_min < u_max < 1, got "
            f"u_min={u_min}, u_max={u_max}")
     _check(len(eta_hat0) == 2 and all(v > 0 for v in eta_hat0) and sum(eta_hat0) <= 1.0,

@@ -43,13 +43,17 @@ def envelope(t: np.ndarray, series: Sequence[Series], max_rows: int
     starts, stops = edges[:-1], edges[1:] - 1
     t_out = np.empty(2 * len(starts))
     t_out[0::2], t_out[1::2] = t[starts], t[stops]
-    out = []
-    for s in series:
-        values = np.asarray(s.values, float)
-        dec = np.empty((len(t_out), values.shape[1]))
-        _bucket_min_max(values, edges, dec)
-        out.append(Series(s.entity, s.names, dec))
+    out = [Series(s.entity, s.names, bucket_min_max(s.values, edges)) for s in series]
     return t_out, out
+
+
+def bucket_min_max(values: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """Rows 2k and 2k + 1: the minimum and the maximum of every column of ``values``
+    (2-d, finite) over the rows ``edges[k]:edges[k + 1]`` (:func:`bucket_edges`)."""
+    values = np.asarray(values, float)
+    out = np.empty((2 * (len(edges) - 1), values.shape[1]))
+    _bucket_min_max(values, edges, out)
+    return out
 
 
 def check_recording(mode: str, max_rows: int) -> None:

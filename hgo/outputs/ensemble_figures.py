@@ -8,7 +8,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from hgo.outputs.figures import save_figure
+from hgo.outputs.figures import PALETTE, save_figure
 
 
 def metric_histograms(members: pd.DataFrame, path: Path) -> Path:
@@ -21,10 +21,10 @@ def metric_histograms(members: pd.DataFrame, path: Path) -> Path:
     for ax, ((obs, quantity), grp) in zip(axes[:, 0], groups, strict=False):
         values = grp.empirical.to_numpy(float)
         logs = np.log10(np.clip(values, 1e-300, None))
-        ax.hist(logs, bins=40, color="tab:blue", alpha=0.8)
+        ax.hist(logs, bins=40, color=PALETTE["blue"], alpha=0.8)
         bounds = grp.bound.to_numpy(float)
         if np.isfinite(bounds).any():
-            ax.axvline(np.log10(np.nanmax(bounds)), color="tab:red", ls="--",
+            ax.axvline(np.log10(np.nanmax(bounds)), color=PALETTE["vermillion"], ls="--",
                        label="largest bound")
             ax.legend(loc="upper right", fontsize=8)
         ax.set_title(f"{obs}: {quantity} ({len(values)} members)", fontsize=9)

@@ -6,22 +6,46 @@ the ``figures`` config mapping and writes ``<name>.<figures.format>`` in the run
 (``png`` by default; ``pdf``, ``svg``) at ``figures.dpi``. Matplotlib runs on its
 non-interactive Agg backend (no display needed).
 
-One style for every paper (:data:`STYLE`): mathematical labels in mathtext
-(:func:`hat`, :func:`math_label`), units on every axis, panel letters from
-:func:`panel_letters`, legends placed where they hide the least data.
+One style for every paper (:data:`STYLE`): one colour-blind-safe palette (:data:`PALETTE`,
+Okabe & Ito's eight colours), mathematical labels in mathtext (:func:`hat`,
+:func:`math_label`), units on every axis, panel letters from :func:`panel_letters`, legends
+placed where they hide no data (:func:`legend_below`).
+
+Drawing costs the same for 1e3 or 1e7 samples: :func:`plot_line` draws a signal reduced
+to the minimum and maximum of each pixel column of its axes (what the full line would
+look like at that width), :func:`plot_band` draws a dense noisy signal as that min/max
+band with the column means as its representative line. Only the drawing is reduced:
+metrics are computed from the full-rate data before any figure. A transient and a long
+horizon share a figure through a split time axis (:func:`split_time`).
 """
 
 from __future__ import annotations
 
 import re
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 
 import matplotlib
+import numpy as np
+from matplotlib import cycler  # (matplotlib re-exports it: no extra dependency)
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
+# Okabe & Ito (2008), "Color universal design": distinguishable with every common colour
+# vision deficiency; the same names in every paper's figures
+PALETTE = {"black": "#000000", "orange": "#E69F00", "sky": "#56B4E9", "green": "#009E73",
+           "yellow": "#F0E442", "blue": "#0072B2", "vermillion": "#D55E00",
+           "purple": "#CC79A7", "grey": "#7F7F7F"}
+CYCLE = [PALETTE[c] for c in ("blue", "vermillion", "green", "orange", "purple", "sky")]
+# runs of a sweep on one axes: a colour and a line style each (distinct in grey too)
+RUN_STYLES = [{"color": PALETTE["blue"], "ls": "-"}, {"color": PALETTE["vermillion"], "ls": "--"},
+              {"color": PALETTE["green"], "ls": "-."}, {"color": PALETTE["orange"], "ls": ":"},
+              {"color": PALETTE["purple"], "ls": "-"}]
+
 STYLE = {
+    "axes.prop_cycle": cycler(color=CYCLE),
     "font.size": 10, "axes.titlesize": 10, "axes.labelsize": 10, "legend.fontsize": 8,
     "figure.titlesize": 11, "axes.grid": True, "grid.alpha": 0.3, "lines.linewidth": 1.2,
     "legend.loc": "best", "legend.framealpha": 0.85, "savefig.dpi": 110,
@@ -83,15 +107,169 @@ def legend_outside(ax, below: bool = False) -> None:
         ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
 
 
+_ALSO: list[str] = []  # vector formats save_figure writes beside each figure
+
+
+@contextmanager
+def also_saved_as(vector: str | None) -> Iterator[None]:
+    """Inside: :func:`save_figure` also writes ``<path stem>.<vector>`` (``pdf``,
+    ``svg``; None: nothing more), the same figure as a vector file for a paper."""
+    if vector:
+        _ALSO.append(vector)
+    try:
+        yield
+    finally:
+        if vector:
+            _ALSO.pop()
+
+
 def save_figure(fig, path: str | Path) -> None:
     """Lay out ``fig``, write it to ``path`` (format from its suffix, dpi from
-    ``savefig.dpi``) and close it. The file is written as ``<path>.partial`` and renamed
-    when complete (:func:`hgo.outputs.recording.atomic_output`)."""
+    ``savefig.dpi``), and as ``<stem>.pdf``/``.svg`` inside :func:`also_saved_as`, then
+    close it. Each file is written as ``<path>.partial`` and renamed when complete
+    (:func:`hgo.outputs.recording.atomic_output`)."""
     from hgo.outputs.recording import atomic_output
 
     fig.tight_layout()
+    # a figure legend below the axes (legend_below) lies outside the canvas: grow it
+    extra = {"bbox_inches": "tight", "pad_inches": 0.1} if fig.legends else {}
+    path = Path(path)
+    targets = [path] + [path.with_suffix(f".{v}") for v in dict.fromkeys(_ALSO)
+                        if path.suffix != f".{v}"]
     try:
-        with atomic_output(path) as partial:
-            fig.savefig(partial, format=Path(path).suffix.lstrip(".") or "png")
+        for target in targets:
+            with atomic_output(target) as partial:
+                fig.savefig(partial, format=target.suffix.lstrip(".") or "png", **extra)
     finally:
         plt.close(fig)
+
+
+def legend_below(fig, axes: Sequence | None = None, ncol: int | None = None) -> None:
+    """One legend for the whole figure, centred below it (no white gap beside the axes):
+    the distinct labels of ``axes`` (default: all), in drawing order."""
+    handles: dict[str, object] = {}
+    for ax in axes if axes is not None else fig.axes:
+        for h, label in zip(*ax.get_legend_handles_labels(), strict=True):
+            handles.setdefault(label, h)
+    if getattr(fig, "hgo_band", False):
+        from matplotlib.patches import Patch
+
+        handles["shaded: min–max of each pixel column, line: its mean"] = Patch(
+            color=PALETTE["grey"], alpha=0.35)
+    if handles:
+        fig.legend(list(handles.values()), list(handles), loc="upper center",
+                   bbox_to_anchor=(0.5, 0.02), ncol=ncol or min(3, len(handles)),
+                   frameon=False)
+
+
+def pixel_columns(ax) -> int:
+    """The width of ``ax`` in pixels at the figure's dpi (at least 100)."""
+    fig = ax.figure
+    return max(100, int(ax.get_position().width * fig.get_figwidth() * fig.dpi))
+
+
+def _window(t: np.ndarray, y: np.ndarray, window: tuple[float, float] | None):
+    t, y = np.asarray(t, float), np.asarray(y, float)
+    if window is None:
+        return t, y
+    a, b = np.searchsorted(t, window[0], "left"), np.searchsorted(t, window[1], "right")
+    return t[max(a - 1, 0):b + 1], y[max(a - 1, 0):b + 1]  # one sample beyond each edge
+
+
+def _columns(t: np.ndarray, y: np.ndarray, columns: int):
+    """(edges, t_first, t_last, min, max) of ``y`` per column of consecutive samples."""
+    from hgo.outputs.decimate import bucket_edges, bucket_min_max
+
+    edges = bucket_edges(len(t), 2 * columns)
+    mm = bucket_min_max(y.reshape(len(y), -1), edges)[:, 0]
+    return edges, t[edges[:-1]], t[edges[1:] - 1], mm[0::2], mm[1::2]
+
+
+def drawn(t, y, columns: int, window: tuple[float, float] | None = None):
+    """``(t, y)`` inside ``window`` as drawn on ``columns`` pixels: unchanged up to
+    4 samples a pixel, else each pixel column's minimum and maximum (every peak stays)."""
+    t, y = _window(t, y, window)
+    if len(t) <= 4 * columns:
+        return t, y
+    edges, t0, t1, lo, hi = _columns(t, y, columns)
+    # a falling column is drawn from its maximum to its minimum: a smooth curve stays
+    # smooth (min first everywhere would zigzag back on every falling slope)
+    falling = y[edges[:-1]] > y[edges[1:] - 1]
+    t_out, y_out = np.empty(2 * len(t0)), np.empty(2 * len(t0))
+    t_out[0::2], t_out[1::2] = t0, t1
+    y_out[0::2], y_out[1::2] = np.where(falling, hi, lo), np.where(falling, lo, hi)
+    return t_out, y_out
+
+
+def noisy(lo: np.ndarray, hi: np.ndarray) -> bool:
+    """Whether a signal whose pixel columns span ``lo``..``hi`` is dense noise: the median
+    column spans more than 15 % of the whole range (a smooth curve spans ~1 pixel)."""
+    total = float(np.max(hi) - np.min(lo))
+    return total > 0 and float(np.median(hi - lo)) > 0.15 * total
+
+
+def plot_line(ax, t, y, *args, window: tuple[float, float] | None = None,
+              band: bool | None = None, **kwargs):
+    """``ax.plot(t, y, ...)`` of the samples inside ``window``, reduced to the pixel width
+    of ``ax`` (:func:`drawn`). A dense noisy signal (``band=None``: :func:`noisy`; True:
+    always) is drawn as :func:`plot_band` instead: a line of it would fill a block."""
+    columns = pixel_columns(ax)
+    td, yd = drawn(t, y, columns, window)
+    if band is None:
+        first, second = yd[0::2], yd[1::2]
+        band = len(td) == 2 * columns and noisy(np.minimum(first, second),
+                                                np.maximum(first, second))
+    if band and not args:
+        return plot_band(ax, t, y, window=window, **kwargs)
+    return ax.plot(td, yd, *args, **kwargs)
+
+
+def plot_band(ax, t, y, *, color: str, label: str | None = None,
+              window: tuple[float, float] | None = None, lw: float = 1.2,
+              alpha: float = 0.28, **kwargs):
+    """A dense noisy signal: the min/max band of each pixel column (light) and the
+    column means (a line in ``color``, ``kwargs`` its style) as its representative curve;
+    a plain line where there are fewer than 3 samples a pixel."""
+    t, y = _window(t, y, window)
+    columns = pixel_columns(ax) // 2  # 2 px a column: the mean line stays smooth
+    line = {k: v for k, v in kwargs.items() if k != "alpha"}
+    if len(t) <= 3 * columns:
+        return ax.plot(t, y, color=color, lw=lw, label=label, **line)
+    edges, t0, t1, lo, hi = _columns(t, y, columns)
+    mean = np.add.reduceat(y, edges[:-1]) / np.diff(edges)
+    mid = 0.5 * (t0 + t1)
+    ax.fill_between(mid, lo, hi, color=color, alpha=alpha, lw=0, label="_nolegend_")
+    ax.figure.hgo_band = True  # legend_below explains the shading
+    return ax.plot(mid, mean, color=color, lw=min(lw, 1.5), label=label, **line)
+
+
+def split_rows(n_rows: int, height: float = 2.3):
+    """A figure of ``n_rows`` rows of (transient, rest) axes pairs for :func:`split_time`,
+    the transient a quarter of the width."""
+    return plt.subplots(n_rows, 2, figsize=(11, height * n_rows + 0.6), squeeze=False,
+                        gridspec_kw={"width_ratios": [1, 3]})
+
+
+def split_time(ax_early, ax_late, split: float, t_end: float, t_start: float = 0.0,
+               late_start: float | None = None) -> None:
+    """A broken time axis over two axes side by side: ``[t_start, split]`` (the
+    transient) and ``[late_start or split, t_end]``, each with its own y-range (the
+    data it shows), break marks between them."""
+    ax_early.set_xlim(t_start, split)
+    ax_late.set_xlim(split if late_start is None else late_start, t_end)
+    # the late part at its own scale, but a converged (flat) signal stays a flat line: a
+    # range at least 1e-3 of the transient's, without an offset above the axis
+    (lo, hi), early = ax_late.dataLim.intervaly, ax_early.dataLim.intervaly
+    least = 1e-3 * (early[1] - early[0])
+    if np.isfinite([lo, hi]).all() and hi - lo < least:
+        mid = 0.5 * (lo + hi)
+        ax_late.set_ylim(mid - 0.55 * least, mid + 0.55 * least)
+    for ax in (ax_early, ax_late):
+        ax.ticklabel_format(axis="y", useOffset=False)
+    ax_early.spines["right"].set_visible(False)
+    ax_late.spines["left"].set_visible(False)
+    ax_late.yaxis.tick_right()
+    mark = {"marker": [(-1, -1.5), (1, 1.5)], "markersize": 8, "linestyle": "none",
+            "color": "k", "mec": "k", "mew": 1, "clip_on": False}
+    ax_early.plot([1, 1], [0, 1], transform=ax_early.transAxes, **mark)
+    ax_late.plot([0, 0], [0, 1], transform=ax_late.transAxes, **mark)

@@ -33,10 +33,17 @@ Notes
 
 from __future__ import annotations
 
+import errno
+import functools
 import os
 import re
+import select
+import shutil
+import signal
+import sys
+import time as time_module
 import warnings
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -254,23 +261,41 @@ def write_recording(
     ValueError
         On an invalid ``recording_id``, a bad time grid, a duplicated entity, or a series
         whose shape does not match ``(len(t), len(names))`` (the message names the entity).
+    OSError
+        ``errno.ENOSPC`` naming the ``.partial`` file when the disk fills (within about a
+        second, see :func:`bounded_write`); ``TimeoutError`` when the write stalls.
+    KeyboardInterrupt
+        Ctrl-C during the write (the ``.partial`` is left).
     """
-    import rerun as rr
-
     _validate_recording_id(recording_id)
     path = Path(path)
     time = _time_column(t)
     checked = _checked_series(series, len(time))
+    partial = partial_path(path)
+    stream = functools.partial(_stream_to_file, partial, time, checked, application_id,
+                               recording_id, blueprint, text)
+    if not bounded_write(partial, stream):
+        warnings.warn(
+            f"Rerun is disabled (RERUN=off?): no recording written to {path}",
+            RuntimeWarning,
+            stacklevel=2,
+        )
+        return path
+    os.replace(partial, path)  # only a complete file gets the final name
+    return path
+
+
+def _stream_to_file(partial: Path, time: np.ndarray, checked: list[tuple[Series, np.ndarray]],
+                    application_id: str, recording_id: str, blueprint: rrb.Blueprint | None,
+                    text: Mapping[str, str] | None) -> bool:
+    """Rerun's part of :func:`write_recording`: the stream saved to ``partial`` and closed;
+    False when Rerun is disabled (nothing written)."""
+    import rerun as rr
+
     with rr.RecordingStream(application_id, recording_id=recording_id) as rec:
         if not rec.is_enabled():
-            warnings.warn(
-                f"Rerun is disabled (RERUN=off?): no recording written to {path}",
-                RuntimeWarning,
-                stacklevel=2,
-            )
-            return path
-        path.parent.mkdir(parents=True, exist_ok=True)
-        partial = partial_path(path)
+            return False
+        partial.parent.mkdir(parents=True, exist_ok=True)
         _save(rec, partial, blueprint)
         blocks = _time_blocks(time)
         for s, values in checked:
@@ -280,8 +305,154 @@ def write_recording(
         rec.log(COMPLETE, rr.TextDocument(f"{len(time)} samples"), static=True)
     del rec
     _release_closed_streams()
-    os.replace(partial, path)  # only a complete file gets the final name
-    return path
+    return True
+
+
+#: A write whose file has not grown for this long while the disk has less than
+#: ``LOW_SPACE`` bytes free is ended as a full disk; one that has not grown for
+#: ``STALL_SECONDS`` (``HGO_WRITE_STALL_SECONDS``) whatever the free space, as stalled.
+FULL_DISK_SECONDS = 1.0
+LOW_SPACE = 1 << 20
+STALL_SECONDS = float(os.environ.get("HGO_WRITE_STALL_SECONDS", "120"))
+_DISABLED = 3  # the writing process's exit code when Rerun is disabled
+
+
+def bounded_write(partial: Path, stream: Callable[[], bool]) -> bool:
+    """Run ``stream()`` (which writes ``partial`` through Rerun) in a forked process that
+    the caller watches, and return its result.
+
+    Why: when the disk fills, Rerun 0.41's file-writer thread dies and the stream's flush
+    (on closing it, on dropping it, on any later cleanup) can wait forever in native code,
+    where neither Ctrl-C nor a timeout reaches it (4 hangs in 15 tries measured; the rest
+    end in "File-writer thread shut down prematurely"). Watched from here, a full disk
+    ends the write within ~``FULL_DISK_SECONDS`` with ``OSError(ENOSPC)`` naming the
+    file, Ctrl-C and SIGTERM end it at once (the child is killed), and a Rerun stream
+    that cannot be closed never lives in this process. The child shares the data by fork
+    (copy-on-write, nothing is pickled) and dies with its parent. Without ``fork`` (or
+    with ``HGO_WRITE_IN_PROCESS=1``) ``stream`` runs here, unbounded."""
+    if not hasattr(os, "fork") or os.environ.get("HGO_WRITE_IN_PROCESS") == "1":
+        return stream()
+    import rerun  # noqa: F401  (once in this process, not in every child)
+
+    read_fd, write_fd = os.pipe()
+    sys.stdout.flush()
+    sys.stderr.flush()
+    pid = os.fork()
+    if pid == 0:  # the child: never returns
+        os.close(read_fd)
+        _write_in_child(stream, write_fd)
+    os.close(write_fd)
+    try:
+        code, said = _watch(pid, read_fd, partial)
+    except BaseException:
+        _end_child(pid)
+        raise
+    finally:
+        os.close(read_fd)
+    if code == 0:
+        return True
+    if code == _DISABLED:
+        return False
+    if code in (130, -signal.SIGINT):
+        raise KeyboardInterrupt(f"interrupted (Ctrl-C) while writing {partial}")
+    if "No space left" in said or _free_bytes(partial.parent) < LOW_SPACE:
+        raise _disk_full(partial)
+    lines = [ln for ln in said.splitlines() if ln.strip()]
+    raise OSError(f"writing {partial} failed: {lines[-1] if lines else f'exit {code}'}")
+
+
+def _write_in_child(stream: Callable[[], bool], fd: int) -> None:
+    """The writing process: default Ctrl-C and SIGTERM (they end it at once), killed with
+    its parent, its stderr (Rerun's log lines) sent to the parent, its result as the exit
+    code; never returns."""
+    code = 1
+    try:
+        signal.signal(signal.SIGINT, signal.SIG_DFL)
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        _die_with_parent()
+        os.dup2(fd, 2)
+        code = 0 if stream() else _DISABLED
+    except BaseException as err:  # noqa: BLE001  (reported to the parent as one line)
+        code = 130 if isinstance(err, KeyboardInterrupt) else 1
+        try:
+            os.write(fd, f"\n{type(err).__name__}: {err}\n".encode(errors="replace"))
+        except OSError:
+            pass
+    finally:
+        os._exit(code)
+
+
+def _die_with_parent() -> None:
+    """Linux: SIGKILL this process when its parent dies (a killed run leaves no writer)."""
+    try:
+        import ctypes
+
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
+
+
+def _watch(pid: int, fd: int, partial: Path) -> tuple[int, str]:
+    """Wait for the writing process; its exit code and what it wrote to stderr. Raises
+    ``OSError(ENOSPC)`` or ``TimeoutError`` when ``partial`` stops growing (see
+    :data:`FULL_DISK_SECONDS`, :data:`STALL_SECONDS`)."""
+    said: list[bytes] = []
+    size, changed = -1, time_module.monotonic()
+    while True:
+        ready, _, _ = select.select([fd], [], [], 0.05)
+        if ready:
+            chunk = os.read(fd, 1 << 16)
+            said.append(chunk)
+            if not chunk:  # the child closed its end: it is exiting
+                _, status = os.waitpid(pid, 0)
+                return os.waitstatus_to_exitcode(status), b"".join(said).decode("utf-8",
+                                                                               "replace")
+        done, status = os.waitpid(pid, os.WNOHANG)
+        if done:
+            rest = _read_available(fd)
+            return os.waitstatus_to_exitcode(status), b"".join([*said, rest]).decode(
+                "utf-8", "replace")
+        now = time_module.monotonic()
+        current = partial.stat().st_size if partial.exists() else -1
+        if current != size:
+            size, changed = current, now
+        elif now - changed > FULL_DISK_SECONDS and _free_bytes(partial.parent) < LOW_SPACE:
+            raise _disk_full(partial)
+        elif now - changed > STALL_SECONDS:
+            raise TimeoutError(f"writing {partial} made no progress for {STALL_SECONDS:g} s "
+                               "(HGO_WRITE_STALL_SECONDS); stopped")
+
+
+def _read_available(fd: int) -> bytes:
+    out = []
+    while select.select([fd], [], [], 0)[0]:
+        chunk = os.read(fd, 1 << 16)
+        if not chunk:
+            break
+        out.append(chunk)
+    return b"".join(out)
+
+
+def _end_child(pid: int) -> None:
+    try:
+        os.kill(pid, signal.SIGKILL)
+        os.waitpid(pid, 0)
+    except (ProcessLookupError, ChildProcessError):
+        pass
+
+
+def _free_bytes(folder: Path) -> int:
+    try:
+        return shutil.disk_usage(folder).free
+    except OSError:
+        return 1 << 62
+
+
+def _disk_full(path: Path) -> OSError:
+    """ENOSPC naming ``path`` and the space left (:func:`hgo.core.errors.one_line` shows it as
+    ``no space left on <path> (...)``)."""
+    return OSError(errno.ENOSPC, f"No space left on device, {_free_bytes(path.parent) / 2**20:.3g} "
+                   "MiB free", str(path))
 
 
 def partial_path(path: Path) -> Path:
@@ -295,7 +466,12 @@ def atomic_output(path: str | Path) -> Iterator[Path]:
     without an error (an interrupted or failed write leaves only the ``.partial``)."""
     path = Path(path)
     partial = partial_path(path)
-    yield partial
+    try:
+        yield partial
+    except OSError as err:  # name the file (a full disk: see hgo.core.errors.one_line)
+        if err.errno == errno.ENOSPC and not err.filename:
+            raise _disk_full(partial) from err
+        raise
     os.replace(partial, path)
 
 

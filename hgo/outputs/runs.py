@@ -103,18 +103,54 @@ def write_run_json(out_dir: Path, config: dict, status: str, started: datetime,
 def run_dirs(root: str | Path = "outputs") -> list[Path]:
     """Every directory under ``root`` holding a ``run.json``, newest first."""
     paths = [p.parent for p in Path(root).rglob("run.json")]
-    return sorted(paths, key=lambda p: p.stat().st_mtime, reverse=True)
+
+    def mtime(p: Path) -> float:
+        try:
+            return p.stat().st_mtime
+        except OSError:  # removed meanwhile
+            return 0.0
+    return sorted(paths, key=mtime, reverse=True)
 
 
-def load(root: str | Path = "outputs") -> pd.DataFrame:
+class BadRunRecord(ValueError):
+    """A ``run.json`` that is not a run's record (damaged, truncated, another file)."""
+
+
+SECTIONS = ("config", "metrics", "seconds")  # the mappings of a run.json
+
+
+def read_run_json(run_dir: str | Path) -> dict:
+    """``run_dir/run.json`` as a dict whose sections are mappings, else
+    :class:`BadRunRecord` with one line saying why (``[]``, ``{"config": 5}``, truncated)."""
+    path = Path(run_dir) / "run.json"
+    try:
+        info = json.loads(path.read_text())
+    except OSError as err:
+        raise BadRunRecord(f"{path}: cannot be read ({err.strerror or err})") from None
+    except (json.JSONDecodeError, UnicodeDecodeError) as err:
+        raise BadRunRecord(f"{path}: not valid JSON (truncated?): {err}") from None
+    if not isinstance(info, dict):
+        raise BadRunRecord(f"{path}: not a run record (a JSON {type(info).__name__}, not an "
+                           "object)")
+    for section in SECTIONS:
+        if not isinstance(info.get(section, {}), dict):
+            raise BadRunRecord(f"{path}: not a run record ('{section}' is "
+                               f"{json.dumps(info[section])[:40]}, not an object)")
+    return info
+
+
+def load(root: str | Path = "outputs", skipped: list[str] | None = None) -> pd.DataFrame:
     """One row per run under ``root``: ``path``, provenance columns, ``config.<key>`` and
-    ``metric.<observer>/<quantity>``."""
+    ``metric.<observer>/<quantity>``. A damaged ``run.json`` is left out; with ``skipped``
+    its one-line reason is appended there."""
     rows = []
     for d in run_dirs(root):
         try:
-            info = json.loads((d / "run.json").read_text())
-        except (OSError, json.JSONDecodeError):
-            continue  # a run.json being written, or damaged: not indexed
+            info = read_run_json(d)
+        except BadRunRecord as err:
+            if skipped is not None:
+                skipped.append(str(err))
+            continue
         row = {"path": str(d), **{k: v for k, v in info.items()
                                    if k not in ("config", "metrics", "seconds")}}
         row.update({f"seconds.{k}": v for k, v in info.get("seconds", {}).items()})

@@ -197,14 +197,26 @@ def df2max(hbar: float, u_min: float, u_max: float, n_grid: int = 4000) -> dict[
             "eps1": eps1, "eps2": eps2}
 
 
+#: The range of hbar (Contois constant, dimensionless) a run accepts: the paper's values
+#: are 1 (plant) and 0.8 (observers' model); outside, the rate eta1 eta2/(hbar eta1 + eta2)
+#: is ~0 or ~eta2 and the invariance bounds (C2) degenerate (hbar = 1e300 ran silently).
+HBAR_RANGE = (1e-3, 1e3)
+
+
+def check_hbar(key: str, hbar: float) -> None:
+    low, high = HBAR_RANGE
+    if not (math.isfinite(hbar) and low <= hbar <= high):
+        raise ValueError(f"{key} must be in [{low:g}, {high:g}] (Contois constant; the "
+                         f"paper's 1 and 0.8), got {hbar}")
+
+
 def contois_plant(eta0: Sequence[float] = (0.3, 0.5), hbar: float = 1.0) -> Plant:
     """The bioreactor (11) with initial state eta0 (reading C5: (0.3, 0.5)) and hbar."""
     if len(eta0) != 2:
         raise ValueError(f"plant.eta0 must have 2 entries [eta1, eta2], got {list(eta0)}")
     if not all(math.isfinite(v) and v > 0 for v in eta0) or sum(eta0) > 1.0:
         raise ValueError(f"plant.eta0 must be > 0 with eta1 + eta2 <= 1, got {list(eta0)}")
-    if not (math.isfinite(hbar) and hbar > 0):
-        raise ValueError(f"plant.hbar must be > 0, got {hbar}")
+    check_hbar("plant.hbar", hbar)
     return Plant(name="contois", state_names=["eta1", "eta2"], output_names=["y"],
                  input_names=["u"], x0=np.asarray(eta0, float), p=Params(hbar=hbar),
                  f=f, h=h, output_state=0, spectral_radius=2.0)

@@ -9,9 +9,10 @@ Each paper package declares the runs that draw its figures (``PAPER_FIGURES`` in
 2. reuses a job's directory when it holds a finished run of the same composed config and the
    same code (the key hashes both), and a paper's claim results for the same code;
 3. writes ``outputs/reproduce/<date_time>/report.md`` and a self-contained ``report.html``
-   (figures embedded): a summary table (paper x verdicts, wall time, machine, hgo version
-   and commit), then per paper its figures with the paper's captions, the claims ledger and
-   the bound tables.
+   (figures embedded, each also as a PDF beside it): a table of contents, a summary table
+   (paper x verdicts, wall time, machine, hgo version and commit), then per paper its
+   figures with the paper's captions, its claims and its bounds
+   (:mod:`hgo.reproduce.report`).
 
 Job directories live under ``outputs/reproduce/runs/``, claim results under
 ``outputs/reproduce/claims/``.
@@ -36,16 +37,29 @@ from pathlib import Path
 from hgo.core.registry import PAPERS_PACKAGE, PaperFigure, paper_names
 
 ROOT = Path(__file__).resolve().parents[2]
+VECTOR = "pdf"  # every figure also as a vector file (figures.vector)
 
 
 # ------------------------------------------------------------------------------ keys
 
 
+# files that only render the report (always written again): not part of the results' key
+REPORT_ONLY = ("hgo/reproduce/report.py", "hgo/reproduce/notation.py")
+
+
 def code_fingerprint() -> str:
-    """Hash of hgo's sources and configs: a change to either invalidates every result."""
+    """Hash of hgo's sources and configs: a change to either invalidates every result (a
+    change to the report's rendering, :data:`REPORT_ONLY` and its templates, does not)."""
+    from hgo.core.config import conf_dir
+
     h = hashlib.sha256()
-    for path in sorted([*(ROOT / "hgo").rglob("*.py"), *(ROOT / "conf").rglob("*.yaml")]):
-        h.update(str(path.relative_to(ROOT)).encode())
+    conf = conf_dir()  # the checkout's conf/ or the wheel's hgo/conf: named alike
+    files = [(p.relative_to(ROOT).as_posix(), p) for p in (ROOT / "hgo").rglob("*.py")]
+    files += [("conf/" + p.relative_to(conf).as_posix(), p) for p in conf.rglob("*.yaml")]
+    for name, path in sorted(files):
+        if name in REPORT_ONLY:
+            continue
+        h.update(name.encode())
         h.update(path.read_bytes())
     return h.hexdigest()[:16]
 
@@ -143,7 +157,7 @@ def plan_jobs(papers: list[str], runs_dir: Path, fingerprint: str) -> list[Job]:
     jobs = []
     for paper in papers:
         for fig in paper_figures(paper):
-            all_overrides = fig.jobs()
+            all_overrides = [(*o, f"figures.vector={VECTOR}") for o in fig.jobs()]
             keys = [job_key(o, fingerprint) for o in all_overrides]
             if fig.sweep:  # one sweep directory per set of jobs, job<i> inside
                 sweep = runs_dir / fig.preset / hashlib.sha256("".join(keys).encode()
@@ -163,8 +177,31 @@ def _progress(k: int, n: int, text: str, t0: float) -> None:
     print(f"[{k}/{n}] {text} ({time.perf_counter() - t0:.1f} s)", flush=True)
 
 
+def failures(plan: list[Job], claim_files: dict[str, Path]) -> list[str]:
+    """One line per figure job that did not end ok (run now or reused) and per claim that
+    raised, from the files the workers wrote: ``<what>: <status>``."""
+    out = []
+    for job in plan:
+        try:
+            status = json.loads((job.dir / "reproduce.json").read_text()).get("status")
+        except (OSError, ValueError, AttributeError):
+            status = "no reproduce.json (the job crashed)"
+        if status != "ok":
+            out.append(f"{' '.join(job.overrides)}: {' '.join(str(status).split())[:300]}")
+    for paper, path in claim_files.items():
+        try:
+            results = json.loads(path.read_text()) if path.exists() else {}
+        except (OSError, ValueError):
+            results = {}
+        out += [f"claim {paper}/{cid}: {entry['measured'][:300]}"
+                for cid, entry in results.items()
+                if isinstance(entry, dict) and "error" in entry]
+    return out
+
+
 def reproduce(papers: list[str], jobs: int, root: Path) -> Path:
-    """Run everything of ``papers`` with ``jobs`` processes; return the report directory."""
+    """Run everything of ``papers`` with ``jobs`` processes; return the report directory
+    (the jobs and claims that failed: :func:`failures`)."""
     from hgo.core.registry import all_claims
 
     t0 = time.perf_counter()
@@ -198,7 +235,11 @@ def reproduce(papers: list[str], jobs: int, root: Path) -> Path:
 
     out = root / datetime.now().strftime("%Y-%m-%d_%H-%M-%S")
     write_report(out, papers, plan, claim_files, time.perf_counter() - t0)
+    LAST_FAILURES[:] = failures(plan, claim_files)
     return out
+
+
+LAST_FAILURES: list[str] = []  # of the last reproduce() of this process
 
 
 def _combine(plan: list[Job]) -> None:
@@ -215,7 +256,10 @@ def _combine(plan: list[Job]) -> None:
         if stamp.exists() and json.loads(stamp.read_text()) == keys:
             continue
         try:
-            fig.combine(sweep)
+            from hgo.outputs.figures import also_saved_as
+
+            with also_saved_as(VECTOR):
+                fig.combine(sweep)
             stamp.write_text(json.dumps(keys))
         except Exception as err:
             print(f"reproduce: combining {sweep} failed: {err!r}", file=sys.stderr)
@@ -247,6 +291,13 @@ def main(argv: list[str] | None = None) -> int:
     if args.jobs < 1:
         print(f"error: --jobs: must be >= 1, got {args.jobs}", file=sys.stderr)
         return 2
-    out = reproduce(args.papers or known, args.jobs, Path(args.out))
+    papers = args.papers or known
+    out = reproduce(papers, args.jobs, Path(args.out))
     print(f"reproduce: wrote {out / 'report.md'} and {out / 'report.html'}")
-    return 0
+    failed = list(LAST_FAILURES)
+    for line in failed:
+        print(f"error: {line}", file=sys.stderr)
+    if failed:
+        print(f"reproduce: {len(failed)} job(s) or claim(s) failed (listed above; the "
+              "report has the details)", file=sys.stderr)
+    return 1 if failed else 0

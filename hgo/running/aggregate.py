@@ -28,7 +28,7 @@ can run it).
 The three recordings of the sweep open together in the Rerun viewer (each job has its own
 recording id, so they do not merge):
 
-    rerun outputs/multirun/sp_fig3/<date_time>/job*/recording.rrd
+    hgo view outputs/multirun/sp_fig3/<date_time>      (--web on a headless machine)
 """
 
 from __future__ import annotations
@@ -165,30 +165,49 @@ def markdown(rows: pd.DataFrame, labels: dict[str, str], skipped: list[str],
     return "\n".join(out) + "\n"
 
 
+TRANSIENT = 5.0  # s: the start of the runs on its own axis (at most a quarter of the run)
+LAST = 8.0  # s: the last periods of the runs (an oscillation of ~2 s: ~4 periods)
+
+
 def compare_figure(runs: Sequence[tuple[str, dict[str, np.ndarray]]], path: Path,
                    observer: str = "sign_indefinite", title: str | None = None) -> None:
     """x̂1, x̂2 and the gain r of ``observer`` in several runs (label, recording as from
-    ``read_arrays``): the sweep's ``compare.png`` (Sanfelice & Praly Fig. 3 for sp_fig3)."""
-    import matplotlib.pyplot as plt
+    ``read_arrays``): the sweep's ``compare.png`` (Sanfelice & Praly Fig. 3 for sp_fig3).
+    A split time axis shows the transient and the last periods (not ~30 overlapping
+    periods), one colour and line style a run."""
+    from hgo.outputs.figures import (
+        RUN_STYLES,
+        hat,
+        legend_below,
+        panel_letters,
+        plot_line,
+        save_figure,
+        split_rows,
+        split_time,
+    )
 
-    from hgo.outputs.figures import hat, legend_outside, panel_letters, save_figure
-
-    colours = ["tab:blue", "tab:red", "tab:green", "tab:orange", "tab:purple"]
-    fig, axes = plt.subplots(3, 1, figsize=(10, 8), sharex=True)
+    fig, axes = split_rows(3)
+    t_end = max(float(rec["sim_time"][-1]) for _, rec in runs)
+    split = min(TRANSIENT, t_end / 4)
+    late = max(split, t_end - LAST)
     for k, (label, rec) in enumerate(runs):
         t = rec["sim_time"]
         xh = rec[f"/observer/{observer}/xhat"]
         r = rec[f"/observer/{observer}/r"]
-        c = colours[k % len(colours)]
-        axes[0].plot(t, xh[:, 0], color=c, lw=1, label=label)
-        axes[1].plot(t, xh[:, 1], color=c, lw=1, label=label)
-        axes[2].plot(t, r[:, 0], color=c, lw=1, label=label)
-    for ax, name in zip(axes, [hat("x1"), hat("x2"), "gain $r$"], strict=True):
-        ax.set_ylabel(f"{name} (–)")
-        legend_outside(ax)
-    panel_letters(axes)
+        style = RUN_STYLES[k % len(RUN_STYLES)]
+        for row, y in enumerate((xh[:, 0], xh[:, 1], r[:, 0])):
+            for col, window in enumerate(((0.0, split), (late, t_end))):
+                plot_line(axes[row, col], t, y, window=window, lw=1.2, label=label, **style)
+    for row, name in enumerate([hat("x1"), hat("x2"), "gain $r$"]):
+        split_time(axes[row, 0], axes[row, 1], split, t_end, late_start=late)
+        axes[row, 0].set_ylabel(f"{name} (–)")
+    axes[0, 0].set_title(f"transient, $0 \\leq t \\leq {split:g}$ s")
+    axes[0, 1].set_title(f"last periods, ${late:g} \\leq t \\leq {t_end:g}$ s")
+    for ax in axes[-1]:
+        ax.set_xlabel("$t$ (s)")
+    panel_letters(axes[:, 0])
+    legend_below(fig, ncol=len(runs))
     fig.suptitle(title or f"{len(runs)} runs of the sweep: observer '{observer}'")
-    axes[2].set_xlabel("$t$ (s)")
     save_figure(fig, path)
 
 
@@ -240,9 +259,8 @@ def aggregate(sweep: str | Path, out: str | Path | None = None,
     for line in skipped + failed:
         print(f"aggregate: {line}", file=sys.stderr)
     print(f"aggregate: {len(labels)} job(s) -> " + ", ".join(str(p) for p in paths.values()))
-    rrds = sorted(str(p) for p in sweep.glob("*/recording.rrd"))
-    if rrds:
-        print("open together in the Rerun viewer:  rerun " + " ".join(rrds))
+    if any(sweep.glob("*/recording.rrd")):
+        print(f"open together in the Rerun viewer:  hgo view {sweep}")
     return paths
 
 
@@ -326,28 +344,85 @@ class SweepSummary(Callback):
             job_return.hydra_cfg = None
 
     def on_multirun_end(self, config, **kwargs) -> None:
-        print(sweep_summary(Path(config.hydra.sweep.dir)), flush=True)
+        """Print the table; the sweep's process exits with the worst code of its jobs (1
+        for a job that did not finish): jobs run by submitit, joblib or ray report their
+        exit code in other processes, and a sweep of failed jobs exited 0."""
+        from hgo.running.job import exit_with
+
+        sweep = Path(config.hydra.sweep.dir)
+        print(sweep_summary(sweep), flush=True)
+        code = sweep_exit_code(sweep)
+        if code:
+            exit_with(code)
+
+
+FAILED = ".hgo_failed"  # in a sweep directory: <job name> -> "<exit code>\n<one line>"
+
+
+def record_failure(sweep: Path, job: str, code: int, line: str) -> None:
+    """Note that ``job`` of ``sweep`` failed (its directory may be gone: a configuration
+    error leaves none), for :func:`sweep_summary` in the sweep's own process."""
+    folder = Path(sweep) / FAILED
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / job).write_text(f"{code}\n{line}\n")
+
+
+def _failures(sweep: Path) -> dict[str, tuple[int, str]]:
+    out = {}
+    folder = Path(sweep) / FAILED
+    for note in sorted(folder.iterdir()) if folder.is_dir() else []:
+        code, _, line = note.read_text().partition("\n")
+        out[note.name] = (int(code) if code.strip().lstrip("-").isdigit() else 1,
+                          line.strip())
+    return out
+
+
+def _job_status(job: Path) -> tuple[str, dict]:
+    import json
+
+    try:
+        data = json.loads((job / "run.json").read_text())
+        return str(data.get("status", "no status in run.json")), data
+    except (OSError, ValueError, AttributeError):
+        return "no run.json (the job did not finish)", {}
+
+
+def _is_ok(status: str) -> bool:
+    return status == "ok" or status.startswith("ok (")
+
+
+def sweep_exit_code(sweep: Path) -> int:
+    """The worst exit code of the sweep's jobs: a recorded failure's, 1 for a job without a
+    successful run.json, 0 when every job is ok."""
+    failures = _failures(sweep)
+    codes = [code for code, _ in failures.values()]
+    codes += [1 for job in _job_dirs(sweep)
+              if job.name not in failures and not _is_ok(_job_status(job)[0])]
+    return max(codes, default=0)
 
 
 def sweep_summary(sweep: Path) -> str:
-    """``<n> jobs in <sweep>: <k> ok`` then a row per job (the table fits 100 columns)."""
-    import json
-
+    """``<n> jobs in <sweep>: <k> ok, <f> failed`` then a row per job (the table fits 100
+    columns), and each failed job's one-line error."""
+    failures = _failures(sweep)
     jobs = _job_dirs(sweep)
     overrides = {j.name: _overrides(j) for j in jobs}
     labels = _varying(overrides) if overrides else {}
     lines, n_ok = [], 0
     for job in jobs:
-        info = job / "run.json"
-        data = json.loads(info.read_text()) if info.exists() else {}
-        status = data.get("status", "no run.json (the job did not finish)")
-        n_ok += status == "ok"
-        metric = next(iter(data.get("metrics", {}).items()), None)
+        status, data = _job_status(job)
+        n_ok += _is_ok(status)
+        metric = next(iter((data.get("metrics") or {}).items()), None)
         shown = (f"{metric[0].rsplit('/', 1)[-1][:26]} = {metric[1]:.4g}"
-                 if metric and metric[1] is not None else "")
+                 if metric and isinstance(metric[1], int | float) else "")
         lines.append(f"  {job.name:6s} {labels.get(job.name, '')[:34]:34s} "
                      f"{status[:14]:14s} {shown}")
-    return "\n".join([f"sweep: {len(jobs)} jobs in {sweep}: {n_ok} ok", *lines])
+    names = {j.name for j in jobs} | set(failures)
+    n_failed = len(names) - n_ok
+    errors = [f"  {name}: error: {line}" for name, (_, line) in failures.items()]
+    head = f"sweep: {len(names)} jobs in {sweep}: {n_ok} ok" + (
+        f", {n_failed} failed" if n_failed else "")
+    return "\n".join([head, *lines, *errors])
 
 
 def main(argv: list[str] | None = None) -> int:

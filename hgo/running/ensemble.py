@@ -17,7 +17,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from hgo.core.errors import as_floats
 from hgo.engine.system import System
-from hgo.running.grid import expand_grid, grid_size, shard_indices
+from hgo.running.grid import check_grid, expand_grid, grid_size, shard_indices, shard_size
 
 
 def _layout(system: System) -> tuple:
@@ -125,6 +125,31 @@ class MemberPlan:
     index: np.ndarray
 
 
+def _group(node) -> dict:
+    return OmegaConf.to_container(node, resolve=True) if OmegaConf.is_config(node) \
+        else dict(node or {})
+
+
+def check_grid_seeds(grid: Mapping[str, Any]) -> None:
+    """``ensemble.grid.seed`` holds integers >= 0 (0.5 and 1.5 were truncated to 0 and 1;
+    -1 failed in numpy with "expected non-negative integer")."""
+    for value in grid.get("seed") or []:
+        if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value < 2 ** 63:
+            raise ValueError(f"ensemble.grid.seed: {value!r} is not a seed (allowed: "
+                             f"integers >= 0), in {str(grid['seed'])[:80]}")
+
+
+def member_count(cfg: DictConfig) -> int:
+    """Number of members :func:`plan_members` would make (grid points x replicates, then
+    the shard), computed without making them."""
+    ens = cfg.ensemble
+    grid = _group(ens.get("grid"))
+    check_grid(grid)
+    check_grid_seeds(grid)
+    reps = max(int(ens.size), 1 if grid else 0)
+    return shard_size(grid_size(grid) * reps, ens.get("shard"))
+
+
 def plan_members(cfg: DictConfig) -> MemberPlan:
     """Members of ``cfg.ensemble``: grid points x replicates, then the shard.
 
@@ -137,8 +162,7 @@ def plan_members(cfg: DictConfig) -> MemberPlan:
     ``-m``. Member index = g * R + j.
     """
     ens = cfg.ensemble
-    grid, vary = (OmegaConf.to_container(node, resolve=True) if OmegaConf.is_config(node)
-                  else dict(node or {}) for node in (ens.get("grid"), ens.get("vary")))
+    grid, vary = _group(ens.get("grid")), _group(ens.get("vary"))
     check_member_keys(list(grid), "ensemble.grid")
     check_member_keys(list(vary), "ensemble.vary")
     vary = {k: v for k, v in vary.items() if k not in grid}  # a grid key is not drawn

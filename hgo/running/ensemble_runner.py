@@ -37,7 +37,7 @@ from hydra.utils import instantiate
 from omegaconf import DictConfig
 
 from hgo.core.errors import ConfigError
-from hgo.core.validate import check_values
+from hgo.core.validate import check_ensemble_cost, check_values
 from hgo.engine.jit import run_seconds
 from hgo.engine.simulate import INTERRUPTED, rho_const, simulate, simulate_ensemble
 from hgo.engine.system import System
@@ -49,6 +49,7 @@ from hgo.outputs.recording import atomic_output
 from hgo.postprocess import PostOutput
 from hgo.running.ensemble import (
     build_members,
+    member_count,
     member_nodes,
     plain_value,
     plan_members,
@@ -65,6 +66,7 @@ from hgo.running.runner import (
     check_cost,
     job_config_yaml,
     recording_id,
+    run_size,
     signals,
     solver_settings,
     status_text,
@@ -222,6 +224,18 @@ class EnsemblePlan:
     d0: np.ndarray
 
 
+def _check_members_cost(cfg: DictConfig, solver) -> None:
+    """Members, memory and steps of the ensemble estimated from its count and the base
+    config's run, before any member is made (:func:`hgo.core.validate.check_ensemble_cost`):
+    a 1e9-point grid or ``ensemble.size=1e8`` ended in MemoryError after 1-20 s."""
+    n_members = member_count(cfg)
+    one = run_size(build_system(cfg), solver, _instantiate(cfg.noise, "noise", NoiseModel))
+    record = bool(cfg.get("postprocess"))  # post-processed members keep their trajectory
+    member_bytes = 8 * (one.noise + (one.rows * one.columns if record else 0))
+    key = "ensemble.grid" if cfg.ensemble.get("grid") else "ensemble.size"
+    check_ensemble_cost(n_members, member_bytes, one.steps, solver.max_steps, key=key)
+
+
 def prepare_ensemble(cfg: DictConfig) -> EnsemblePlan:
     """Check the config, plan and build every member and sample its noise (no integration)."""
     check_values(cfg)
@@ -229,6 +243,7 @@ def prepare_ensemble(cfg: DictConfig) -> EnsemblePlan:
         raise ConfigError("ensemble.size", f"must be >= 0, got {cfg.ensemble.size}",
                           "0 for a single run (or one member per grid point), or >= 1")
     solver = solver_settings(cfg)
+    _check_members_cost(cfg, solver)
     plan = plan_members(cfg)
     size = len(plan.index)
     nodes = member_nodes(cfg, plan.values) if plan.values else [cfg] * size

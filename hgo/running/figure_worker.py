@@ -12,6 +12,13 @@ those of drawing in the run's own process: an exception raised by a figure is ra
 again in the parent; a child that dies without replying fails the run with a
 :class:`ChildProcessError`.
 
+The child receives what the figures draw (:func:`drawing_view`): a run of more than
+~60,000 samples travels with its first and last 20,000 samples at full rate (transients,
+last periods) and the samples between as the min/max of 10,000 buckets, which is what a
+line of them looks like at any figure's pixel width; a 1e7-sample run sends ~0.5 MB a column
+instead of 80 MB, and nothing is copied for the figures in the parent. Metrics never see
+this view (they are computed from the full-rate run before).
+
 Used by ``hgo run`` for single runs (not sweeps, whose jobs share one process and so
 import matplotlib once, nor ensembles) on Linux, where ``fork`` is the start method
 every library here supports. The child ignores Ctrl-C (the parent ends it) and ends with
@@ -31,9 +38,63 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 from omegaconf import DictConfig
 
 from hgo.core.errors import one_line
+
+FULL_RATE = 20_000  # samples kept at full rate at each end of a run (drawing_view)
+BUCKETS = 10_000  # min/max buckets of the samples between them
+
+
+def _min_max_rows(values: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    """Two rows a bucket of ``values`` (2-d): min then max, or max then min where the
+    bucket falls (its first value above its last), so a smooth curve stays smooth."""
+    from hgo.outputs.decimate import bucket_min_max
+
+    mm = bucket_min_max(values, edges)
+    lo, hi = mm[0::2], mm[1::2]
+    falling = values[edges[:-1]] > values[edges[1:] - 1]
+    mm[0::2], mm[1::2] = np.where(falling, hi, lo), np.where(falling, lo, hi)
+    return mm
+
+
+def _reduced(values: np.ndarray, edges: np.ndarray) -> np.ndarray:
+    head, tail = values[:FULL_RATE], values[len(values) - FULL_RATE:]
+    middle = values[FULL_RATE:len(values) - FULL_RATE]
+    if values.ndim == 1:
+        return np.concatenate([head, _min_max_rows(middle[:, None], edges)[:, 0], tail])
+    if values.shape[1] == 0:
+        return values[:2 * FULL_RATE + 2 * (len(edges) - 1)]
+    return np.concatenate([head, _min_max_rows(middle, edges), tail])
+
+
+def drawing_view(result: Any) -> Any:
+    """``result`` (:class:`hgo.running.runner.RunResult`) as the figures draw it: unchanged up to
+    ``2 * (FULL_RATE + BUCKETS)`` samples; else each per-sample array keeps its first and
+    last ``FULL_RATE`` rows and reduces the rows between to the min/max of ``BUCKETS``
+    buckets (time stamped with each bucket's first and last sample)."""
+    import dataclasses
+
+    from hgo.outputs.decimate import bucket_edges
+
+    traj = result.trajectory
+    n = len(traj.t)
+    if n <= 2 * (FULL_RATE + BUCKETS) or not traj.ok:
+        return result
+    edges = bucket_edges(n - 2 * FULL_RATE, 2 * BUCKETS)
+    middle_t = traj.t[FULL_RATE:n - FULL_RATE]
+    t_mid = np.empty(2 * BUCKETS)
+    t_mid[0::2], t_mid[1::2] = middle_t[edges[:-1]], middle_t[edges[1:] - 1]
+    t = np.concatenate([traj.t[:FULL_RATE], t_mid, traj.t[n - FULL_RATE:]])
+    per_sample = {f.name: _reduced(getattr(traj, f.name), edges)
+                  for f in dataclasses.fields(traj)
+                  if f.name != "t" and isinstance(getattr(traj, f.name), np.ndarray)
+                  and getattr(traj, f.name).shape[:1] == (n,)}
+    series = [dataclasses.replace(s, values=_reduced(np.asarray(s.values), edges))
+              if len(s.values) == n else s for s in result.series]
+    return dataclasses.replace(result, trajectory=dataclasses.replace(traj, t=t, **per_sample),
+                               series=series)
 
 
 def _read_all(fd: int) -> bytes:
@@ -88,6 +149,7 @@ def _serve(cfg: DictConfig, request_fd: int, reply_fd: int) -> None:
     """The child: import, wait for the result, draw, reply ``("ok", paths)`` or
     ``("error", exception)``. EOF instead of a request (the run stopped): draw nothing."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # (the parent's SIGTERM handler raises)
     import hgo.outputs.figures  # noqa: F401  (matplotlib with hgo's style, while the parent runs)
     from hgo.running.figures import draw_figures
 
@@ -136,8 +198,9 @@ class FigureWorker:
         return sys.platform == "linux" and hasattr(os, "fork")
 
     def submit(self, result: Any) -> None:
-        """Send the run's result (in the background): the child starts drawing."""
-        data = pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL)
+        """Send the run's result as the figures draw it (:func:`drawing_view`; in the
+        background): the child starts drawing."""
+        data = pickle.dumps(drawing_view(result), protocol=pickle.HIGHEST_PROTOCOL)
         fd, self._request_w = self._request_w, -1
         self._sender = threading.Thread(target=_send_and_close, args=(fd, data), daemon=True)
         self._sender.start()

@@ -20,15 +20,18 @@ from collections.abc import Iterator
 from contextlib import contextmanager, nullcontext
 from pathlib import Path
 
+from hydra.experimental.callback import Callback
 from omegaconf import DictConfig, OmegaConf
 
-from hgo.core.errors import is_config_error, one_line
+from hgo.core.errors import PlainError, is_config_error, one_line
 from hgo.core.memory import release_freed_memory, skip_exit_collection
+from hgo.core.validate import check_run_name
 
 log = logging.getLogger(__name__)
 EXIT_CONFIG, EXIT_FAILED, EXIT_INTERRUPTED = 2, 1, 130
 _EXIT_CODES: list[int] = []  # of the jobs of this process that did not succeed
-_HYDRA_FILES = {".hydra"}
+LOCK = ".hgo_lock"  # held (flock) in a run directory while a run writes it
+_HYDRA_FILES = {".hydra", LOCK}
 
 
 def full_error() -> bool:
@@ -36,10 +39,26 @@ def full_error() -> bool:
     return os.environ.get("HYDRA_FULL_ERROR", "") == "1"
 
 
+_LAST_ERROR: list[str] = []  # the one line of this process's last failed job
+
+
 def report(err: BaseException, code: int) -> None:
     """Write ``error: <one line>`` to stderr and remember the job's exit code."""
-    sys.stderr.write(f"error: {one_line(err)}\n")
+    line = one_line(err)
+    sys.stderr.write(f"error: {line}\n")
     sys.stderr.flush()
+    _EXIT_CODES.append(code)
+    _LAST_ERROR[:] = [line]
+
+
+def last_error() -> str:
+    """The one line of the last job of this process that failed ("" if none)."""
+    return _LAST_ERROR[0] if _LAST_ERROR else ""
+
+
+def exit_with(code: int) -> None:
+    """Make this process exit with at least ``code`` when the application ends (the sweep's
+    summary: jobs that ran in other processes, under submitit, joblib or ray)."""
     _EXIT_CODES.append(code)
 
 
@@ -100,6 +119,67 @@ def mark_complete(cfg: DictConfig, out_dir: str | Path) -> None:
         partial.write_text("\n".join([config_hash(cfg), *files]) + "\n")
 
 
+class RunDirBusy(PlainError, OSError):
+    """Another run is writing the run directory."""
+
+
+_LOCKS: dict[Path, int] = {}  # run directory -> the descriptor holding its lock
+
+
+def lock_run_dir(out_dir: str | Path) -> None:
+    """Hold the lock of ``out_dir`` (created if needed) for this process, or raise
+    :class:`RunDirBusy` at once when another process holds it: two runs into one
+    ``hydra.run.dir`` left a mix of both marked complete. The lock goes with the process
+    (``flock``): a killed run leaves none behind. Idempotent within a process."""
+    import fcntl
+
+    path = Path(out_dir).resolve()
+    if path in _LOCKS:
+        return
+    path.mkdir(parents=True, exist_ok=True)
+    fd = os.open(path / LOCK, os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        holder = os.pread(fd, 32, 0).decode(errors="replace").strip() or "?"
+        os.close(fd)
+        raise RunDirBusy(f"{path} is being written by another run (pid {holder}); give "
+                         "this run another hydra.run.dir or wait for that one") from None
+    os.ftruncate(fd, 0)
+    os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
+    _LOCKS[path] = fd
+
+
+def unlock_run_dir(out_dir: str | Path) -> None:
+    fd = _LOCKS.pop(Path(out_dir).resolve(), None)
+    if fd is not None:
+        os.close(fd)
+
+
+class RunGuard(Callback):
+    """Hydra callback (``conf/config.yaml``): before Hydra writes anything, ``run_name``
+    must be a plain name (``run_name=..`` wrote outside ``outputs/``) and a single run's
+    directory must not be in use by another run (:func:`lock_run_dir`; Hydra would
+    overwrite that run's ``.hydra/`` first). Hydra turns a callback's exception into a
+    warning and goes on, so a refusal here is the one line and ``SystemExit``."""
+
+    def on_run_start(self, config: DictConfig, **kwargs) -> None:
+        self._refuse_unless(lambda: (check_run_name(config.get("run_name", "run")),
+                                     lock_run_dir(config.hydra.run.dir)))
+
+    def on_multirun_start(self, config: DictConfig, **kwargs) -> None:
+        self._refuse_unless(lambda: check_run_name(config.get("run_name", "run")))
+
+    @staticmethod
+    def _refuse_unless(check) -> None:
+        try:
+            check()
+        except (ValueError, RunDirBusy) as err:
+            sys.stderr.write(f"error: {one_line(err)}\n")
+            raise SystemExit(EXIT_FAILED if isinstance(err, RunDirBusy) else EXIT_CONFIG) \
+                from None
+
+
 def run_job(cfg: DictConfig, out_dir: str | Path, figures_aside: bool = False) -> int:
     """Run ``cfg`` into ``out_dir``; returns the exit code (0: ok), errors reported as one
     line (see module doc). Ctrl-C ends the process (exit 130) after the one line: a sweep
@@ -114,8 +194,14 @@ def run_job(cfg: DictConfig, out_dir: str | Path, figures_aside: bool = False) -
     from hgo.running.runner import SimulationFailed, run
 
     skip_exit_collection()  # this process (a sweep, a joblib worker) exits in ~0.2 s
+    try:
+        lock_run_dir(out_dir)
+    except RunDirBusy as err:
+        report(err, EXIT_FAILED)
+        return EXIT_FAILED
     if cfg.get("resume", False) and is_complete(cfg, out_dir):
         log.info("resume: %s already holds this job's complete outputs; skipped", out_dir)
+        unlock_run_dir(out_dir)
         return 0
     try:
         (Path(out_dir) / DONE).unlink(missing_ok=True)
@@ -149,6 +235,7 @@ def run_job(cfg: DictConfig, out_dir: str | Path, figures_aside: bool = False) -
         report(err, EXIT_CONFIG)
         return EXIT_CONFIG
     finally:  # the next job of a sweep starts from the memory this one began with
+        unlock_run_dir(out_dir)
         release_freed_memory()
     return 0
 

@@ -42,7 +42,7 @@ from hgo.outputs.metrics import metrics_table, status_word
 from hgo.outputs.recording import Series, atomic_output, time_series_blueprint
 from hgo.outputs.runs import write_run_json
 from hgo.postprocess import PostOutput
-from hgo.running.figures import draw_figures, figure_settings
+from hgo.running.figures import check_figures, draw_figures, figure_settings
 from hgo.running.progress import compile_progress
 from hgo.running.results import Experiment, RunResult
 
@@ -53,7 +53,8 @@ log = logging.getLogger(__name__)
 
 
 class SimulationFailed(RuntimeError):
-    """A run stopped early; its outputs up to the stop time are written."""
+    """A run stopped early; its outputs up to the stop time are written (``result``: the
+    :class:`RunResult` of what was computed)."""
 
 
 class RunInterrupted(KeyboardInterrupt):
@@ -161,19 +162,41 @@ def solver_settings(cfg: DictConfig) -> SolverSettings:
         max_output_rows=s.get("max_output_rows", 10 ** 8),
         split_observers=s.get("split_observers", False))
     settings.validate()
+    # a configured run asks for an error control; the engine's API also takes rtol >= 1
+    # (every step accepted: fixed steps h_max, as tests/test_engine.py's order test does)
+    if not 1e-15 <= settings.rtol < 1:
+        raise ConfigError("solver.rtol", f"must be in [1e-15, 1) (a relative error; below "
+                          f"1e-15 it asks for more than double precision), got "
+                          f"{settings.rtol}", "[1e-15, 1)")
     return settings
 
 
-def check_cost(system: System, solver: SolverSettings, noise: NoiseModel) -> None:
-    """Refuse a run whose output rows, noise samples or steps, estimated now, are too many
-    (:func:`hgo.core.validate.check_cost`)."""
+@dataclass
+class RunSize:
+    """A run's size, estimated before it is made: output rows x columns, noise samples,
+    integration steps (a lower estimate)."""
+
+    rows: int
+    columns: int
+    noise: int
+    steps: float
+
+
+def run_size(system: System, solver: SolverSettings, noise: NoiseModel) -> RunSize:
     n_rows = int(round(solver.t_end / solver.dt_out)) + 1
     ny, nu = len(system.plant.output_names), len(system.plant.input_names)
     n_cols = system.nz + system.nd + 2 * ny + nu + system.nxh
     period = noise.period if noise.kind != "none" else math.inf
     n_noise = int(math.ceil(solver.t_end / period)) + 1 if math.isfinite(period) else 1
-    steps = solver.min_steps(system.spectral_radius(), period)
-    _check_sizes(n_rows, n_cols, n_noise * ny, steps, solver.max_output_rows,
+    return RunSize(n_rows, n_cols, n_noise * ny, solver.min_steps(system.spectral_radius(),
+                                                                   period))
+
+
+def check_cost(system: System, solver: SolverSettings, noise: NoiseModel) -> None:
+    """Refuse a run whose output rows, noise samples or steps, estimated now, are too many
+    (:func:`hgo.core.validate.check_cost`)."""
+    size = run_size(system, solver, noise)
+    _check_sizes(size.rows, size.columns, size.noise, size.steps, solver.max_output_rows,
                  solver.max_steps)
 
 
@@ -191,13 +214,24 @@ def build_postprocessors(cfg: DictConfig, system: System, solver: SolverSettings
     return post
 
 
+def check_single_run(cfg: DictConfig) -> None:
+    """``ensemble.shard`` on a single run was silently ignored (``ensemble.vary`` stays
+    allowed: ``ensemble.size=0`` runs an ensemble preset's base config, tests do)."""
+    if (cfg.get("ensemble") or {}).get("shard"):
+        raise ConfigError("ensemble.shard", "applies to ensembles only; this is a single "
+                          "run (ensemble.size = 0, no ensemble.grid)",
+                          "set ensemble.size >= 1 or ensemble.grid, or drop ensemble.shard")
+
+
 def build(cfg: DictConfig) -> Experiment:
     """Check the values, instantiate and check every component against the others and the
     run's size: raises ValueError (mostly :class:`ConfigError`) naming the bad key."""
     check_values(cfg)
+    check_single_run(cfg)
     solver = solver_settings(cfg)
     vacuous_factor(cfg)
     figure_settings(cfg)
+    check_figures(cfg)
     recording_settings(cfg)
     system = build_system(cfg)
     check_split(system, solver)
@@ -358,7 +392,9 @@ def run(cfg: DictConfig, out_dir: str | Path, figures: FigureWorker | None = Non
     if not traj.ok:
         track(cfg, out_dir, started, f"{status_word(traj.status)}: {traj.message}",
               result.timings, table)
-        raise (RunInterrupted if traj.status == INTERRUPTED else SimulationFailed)(stopped)
+        err = (RunInterrupted if traj.status == INTERRUPTED else SimulationFailed)(stopped)
+        err.result = result  # what was written, for hgo.api.run
+        raise err
     if figures is not None:
         figures.collect()
     else:

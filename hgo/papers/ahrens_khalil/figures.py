@@ -30,13 +30,14 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from hgo.core.registry import PaperFigure
-from hgo.outputs.figures import panel_letters, save_figure
+from hgo.outputs.figures import PALETTE, panel_letters, plot_line, save_figure
 from hgo.papers.ahrens_khalil.postprocess import TRACKING
 
 LOOP_LABELS = {"switched": "the switched-gain observer",
                "fixed_eps2": r"the fixed $\varepsilon_2 = 0.01$ observer",
                "fixed_eps1": r"the fixed $\varepsilon_1 = 5\cdot10^{-4}$ observer"}
-OBS_COLOURS = {"switched": "tab:blue", "fixed_eps2": "tab:green", "fixed_eps1": "tab:red"}
+OBS_COLOURS = {"switched": PALETTE["blue"], "fixed_eps2": PALETTE["green"],
+               "fixed_eps1": PALETTE["vermillion"]}
 
 
 def _tracking(result) -> np.ndarray:
@@ -56,9 +57,9 @@ def _loop_observer(result):
 def _label(obs) -> str:
     p = obs.p
     if p.n_gains == 2:
-        return (rf"{obs.name}: $\varepsilon_1 = {p.eps1:g} \to \varepsilon_2 = {p.eps2:g}$ "
+        return (rf"switched gain $\varepsilon_1 = {p.eps1:g} \to \varepsilon_2 = {p.eps2:g}$ "
                 f"after $T_d = {p.T_d:g}$ s")
-    return rf"{obs.name}: fixed $\varepsilon = {p.eps1:g}$"
+    return rf"fixed gain $\varepsilon = {p.eps1:g}$"
 
 
 def fig1(result, path) -> None:
@@ -70,12 +71,12 @@ def fig1(result, path) -> None:
     eps = result.trajectory.d[:, da + obs.disc_names.index("eps")]
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(8, 6), sharex=True,
                                    gridspec_kw={"height_ratios": [2, 1]})
-    ax1.plot(t, tr[:, 0], "k:", lw=2, label=r"reference $\dot{r}$")
-    ax1.plot(t, tr[:, 1], "tab:blue", lw=1, label="$x_2$")
+    plot_line(ax1, t, tr[:, 0], "k:", lw=2, label=r"reference $\dot{r}$")
+    plot_line(ax1, t, tr[:, 1], color=PALETTE["blue"], lw=1, label="$x_2$")
     ax1.set_ylabel("velocity (rad/s)")
     ax1.legend(loc="lower right")
     ax1.set_title(f"Ahrens & Khalil Fig. 1 - {_label(obs)}")
-    ax2.step(t, eps, "tab:blue", where="post")
+    ax2.step(t, eps, color=PALETTE["blue"], where="post")
     ax2.set_yscale("log")
     ax2.set_ylabel(r"$\varepsilon$ (s)")
     ax2.set_xlabel("$t$ (s)")
@@ -84,8 +85,8 @@ def fig1(result, path) -> None:
 
 
 def _e2_axes(ax, t, e2, label, colour, window=None) -> None:
-    sel = slice(None) if window is None else t >= window
-    ax.plot(t[sel], e2[sel], color=colour, lw=0.8)
+    plot_line(ax, t, e2, color=colour, lw=0.8,
+              window=None if window is None else (window, t[-1]))
     ax.set_ylabel("$e_2$ (rad/s)")
     ax.set_title(label)
 
@@ -239,7 +240,7 @@ def tradeoff_figure(path, eps: np.ndarray, mu: np.ndarray, bound: np.ndarray, r:
                    label=r"$\varepsilon^*$ (fit of (25) per $\mu$)")
     if eps_star_grid:
         mg = np.array(sorted(eps_star_grid))
-        ax2.loglog(mg, [eps_star_grid[m] for m in mg], "s", mfc="none", color="tab:blue",
+        ax2.loglog(mg, [eps_star_grid[m] for m in mg], "s", mfc="none", color=PALETTE["blue"],
                    label=r"$\varepsilon^*$ (measured minimum on the $\varepsilon$ grid)")
     if power is not None and ms.size:
         q, se, pref = power
@@ -426,6 +427,12 @@ def _stacked(which: str):
     return combine
 
 
+BOUNDS_NOTE = ("Ahrens & Khalil state their bounds in order of magnitude only: the ultimate "
+               "bound (25), F_r = ε c₁ + μ c₂/ε^(r−1), has constants c₁, c₂ the paper does "
+               "not give, so no run can compare a number with it. Instead, (25) is fitted to "
+               "the measured ultimate bounds of the ak_tradeoff sweep and the minimiser's "
+               "exponent ε* ∝ μ^(1/r) is checked (claims claim4_tradeoff_held_noise and "
+               "claim4_tradeoff_encoder_noise).")
 _LOOPS = {"controller.observer": ("switched", "fixed_eps2", "fixed_eps1")}
 PAPER_FIGURES = [
     PaperFigure("ak_fig1", {"fig1": "The velocity reference trajectory (ṙ, dotted) and x2 "

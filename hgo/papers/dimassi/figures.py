@@ -4,10 +4,10 @@ Each function takes a :class:`hgo.running.runner.RunResult` and a path and write
 every abscissa, implementation notes 9):
 
 * :func:`fig1`: z_12 = x2 (solid) and its HGO estimate z^_12 (dashed: the saturated z_h12^s
-  that the cascade uses, A13; dotted: the raw z_h12), y-range clipped, with an inset of the
-  peaking (re-simulated on a 10 us grid over the inset's span: the run's output grid is
-  too coarse for a peak that lasts ~3 ms);
-* :func:`fig2`, :func:`fig3`: x1, x^1 and x2, x^2 with an inset of the transient;
+  that the cascade uses, A13; dotted: the raw z_h12) on a split time axis: the peaking
+  over the first 30 ms (re-simulated on a 10 us grid: the run's output grid is too coarse
+  for a peak that lasts ~3 ms), then the rest of the run, each part at its own scale;
+* :func:`fig2`, :func:`fig3`: x1, x^1 and x2, x^2, the first second on its own axis;
 * :func:`fig4`, :func:`fig5`: theta_1 = 1/I, theta^_1 and theta_2 = m g l/(2 I), theta^_2;
 * :func:`errors`: |e1|, |e2|, |theta~_i|/theta_i, V and R^2 on a log scale (not in the paper).
 """
@@ -22,10 +22,21 @@ import numpy as np
 from hgo.core.registry import PaperFigure
 from hgo.engine.simulate import no_noise, simulate
 from hgo.observers import adaptive_cascade as ac
-from hgo.outputs.figures import legend_outside, panel_letters, save_figure
+from hgo.outputs.figures import (
+    PALETTE,
+    legend_below,
+    panel_letters,
+    plot_line,
+    save_figure,
+    split_time,
+)
 
-INSET_HGO = 0.03  # s, Fig. 1 inset
-INSET_TRANSIENT = 1.0  # s, Figs. 2-5 insets
+INSET_HGO = 0.03  # s, Fig. 1: the peaking part of the split time axis
+INSET_TRANSIENT = 1.0  # s, Figs. 2-5: the transient part of the split time axis
+# the true quantity solid black, the estimate dashed in vermillion on top, the raw HGO
+# output dotted blue: distinguishable where they coincide (most of the run)
+STYLES = {"true": {"color": "k", "lw": 1.4}, "estimate": {"color": PALETTE["vermillion"],
+          "lw": 1.3, "ls": "--"}, "raw": {"color": PALETTE["blue"], "lw": 1.2, "ls": ":"}}
 
 
 def _cascade(result):
@@ -48,30 +59,31 @@ def _theta(result) -> np.ndarray:
     return _series(result, f"/observer/{obs.name}/theta_error")
 
 
-def _panel(ax, t, curves, ylabel, ylim=None):
-    for values, style, label in curves:
-        ax.plot(t, values, style, lw=1.1, label=label)
-    ax.set_xlabel("$t$ (s)")
-    ax.set_ylabel(ylabel)
-    if ylim is not None:
-        ax.set_ylim(*ylim)
-    ax.grid(alpha=0.3)
-
-
-def _with_inset(path, title, t, curves, ylabel, ylim=None, span=INSET_TRANSIENT,
-                inset_t=None, inset_curves=None) -> None:
-    fig, ax = plt.subplots(figsize=(10, 4.2))
-    _panel(ax, t, curves, ylabel, ylim)
-    legend_outside(ax)
-    ax.set_title(title)
-    ins = ax.inset_axes([0.52, 0.08, 0.3, 0.38])
+def _with_inset(path, title, t, curves, ylabel, span=INSET_TRANSIENT, inset_t=None,
+                inset_curves=None) -> None:
+    """``curves`` ((values, style key, label)) on a split time axis: ``[0, span]`` (from
+    ``inset_t``/``inset_curves`` when given: a finer grid) and ``[span, t_end]``, each
+    part at the y-range of its own data: no zoom sits on the data, nothing is clipped."""
+    fig, (early, late) = plt.subplots(1, 2, figsize=(10, 3.9),
+                                      gridspec_kw={"width_ratios": [1, 3]})
     ti = t if inset_t is None else inset_t
-    sel = ti <= span
-    for values, style, _ in (curves if inset_curves is None else inset_curves):
-        ins.plot(ti[sel], values[sel], style, lw=0.9)
-    ins.set_xlim(0, span)
-    ins.tick_params(labelsize=7)
-    ins.grid(alpha=0.3)
+    for values, style, label in (curves if inset_curves is None else inset_curves):
+        plot_line(early, ti, values, window=(0.0, span), label=label, **STYLES[style])
+    for values, style, label in curves:
+        plot_line(late, t, values, window=(span, t[-1]), label=label, **STYLES[style])
+    split_time(early, late, span, t[-1])
+    early.set_title(f"transient, $0 \\leq t \\leq {span * 1e3:g}$ ms" if span < 0.1 else
+                    f"transient, $0 \\leq t \\leq {span:g}$ s", fontsize=9)
+    late.set_title(f"${span:g} \\leq t \\leq {t[-1]:g}$ s (own vertical scale)", fontsize=9)
+    if span < 0.1:  # milliseconds on the transient's axis
+        early.xaxis.set_major_formatter(lambda v, _: f"{v * 1e3:g}")
+        early.set_xlabel("$t$ (ms)")
+    else:
+        early.set_xlabel("$t$ (s)")
+    late.set_xlabel("$t$ (s)")
+    early.set_ylabel(ylabel)
+    legend_below(fig, [late], ncol=len(curves))
+    fig.suptitle(title)
     save_figure(fig, path)
 
 
@@ -93,16 +105,15 @@ def fig1(result, path) -> None:
     za = result.experiment.system.z_slices[k + 1][0]
     s_level = ac.unpack(obs.p)["S"][1]
     f_raw = fine.z[:, za + 1]
-    curves = [(x2, "k-", "$z_{12} = x_2$"),
-              (sat, "r--", r"$\hat z_{12}$ (saturated, used by (5), (7))"),
-              (raw, "b:", r"$\hat z_{12}$ raw")]
-    inset = [(fine.z[:, 1], "k-", ""), (np.clip(f_raw, -s_level, s_level), "r--", ""),
-             (f_raw, "b:", "")]
+    curves = [(x2, "true", "$z_{12} = x_2$"),
+              (sat, "estimate", r"$\hat z_{12}$ (saturated at $S$, used by (5), (7))"),
+              (raw, "raw", r"$\hat z_{12}$ raw")]
+    inset = [(fine.z[:, 1], "true", ""), (np.clip(f_raw, -s_level, s_level), "estimate", ""),
+             (f_raw, "raw", "")]
     _with_inset(path, rf"Dimassi et al. Fig. 1 - HGO (6), $\varepsilon = "
-                f"{ac.unpack(obs.p)['eps']:g}$, $S = {s_level:g}$; inset: peaking on a "
-                r"10 $\mu$s grid",
-                t, curves, r"$z_{12}$, $\hat z_{12}$ (rad/s)", (-25, 25), INSET_HGO, fine.t,
-                inset)
+                f"{ac.unpack(obs.p)['eps']:g}$, $S = {s_level:g}$ (peaking on a "
+                r"10 $\mu$s grid)",
+                t, curves, r"$z_{12}$, $\hat z_{12}$ (rad/s)", INSET_HGO, fine.t, inset)
 
 
 def fig2(result, path) -> None:
@@ -110,7 +121,8 @@ def fig2(result, path) -> None:
     t, z = result.trajectory.t, result.trajectory.z
     xh = result.trajectory.xh
     _with_inset(path, r"Dimassi et al. Fig. 2 - $x_1$ and $\hat x_1$ by (5), (7)", t,
-                [(z[:, 0], "k-", "$x_1$"), (xh[:, 0], "r--", r"$\hat x_1$")], "$x_1$ (rad)")
+                [(z[:, 0], "true", "$x_1$"), (xh[:, 0], "estimate", r"$\hat x_1$")],
+                r"$x_1$, $\hat x_1$ (rad)")
 
 
 def fig3(result, path) -> None:
@@ -118,28 +130,28 @@ def fig3(result, path) -> None:
     t, z = result.trajectory.t, result.trajectory.z
     xh = result.trajectory.xh
     _with_inset(path, r"Dimassi et al. Fig. 3 - $x_2$ and $\hat x_2$ by (5), (7)", t,
-                [(z[:, 1], "k-", "$x_2$"), (xh[:, 1], "r--", r"$\hat x_2$")], "$x_2$ (rad/s)",
-                (-25, 25))
+                [(z[:, 1], "true", "$x_2$"), (xh[:, 1], "estimate", r"$\hat x_2$")],
+                r"$x_2$, $\hat x_2$ (rad/s)")
 
 
-def _theta_fig(result, path, i: int, label: str, unit: str, ylim) -> None:
+def _theta_fig(result, path, i: int, unit: str) -> None:
     t = result.trajectory.t
     theta = np.full_like(t, _true(result)[i])
     th = theta + _theta(result)[:, i]
     sym, est = rf"$\theta_{i + 1}$", rf"$\hat\theta_{i + 1}$"
     _with_inset(path, f"Dimassi et al. Fig. {4 + i} - {sym} and its estimate", t,
-                [(theta, "k-", f"{sym} = {theta[0]:g}"), (th, "r--", est)],
-                f"{sym} ({unit})", ylim)
+                [(theta, "true", f"{sym} = {theta[0]:g}"), (th, "estimate", est)],
+                f"{sym}, {est} ({unit})")
 
 
 def fig4(result, path) -> None:
     """Fig. 4: theta_1 = 1/I and theta^_1."""
-    _theta_fig(result, path, 0, "theta_1", r"kg$^{-1}$ m$^{-2}$", (-4, 4))
+    _theta_fig(result, path, 0, r"kg$^{-1}$ m$^{-2}$")
 
 
 def fig5(result, path) -> None:
     """Fig. 5: theta_2 = m g l / (2 I) and theta^_2."""
-    _theta_fig(result, path, 1, "theta_2", r"s$^{-2}$", (-9, 14))
+    _theta_fig(result, path, 1, r"s$^{-2}$")
 
 
 def errors(result, path) -> None:
@@ -150,19 +162,21 @@ def errors(result, path) -> None:
     th = np.abs(_theta(result))
     theta = np.abs(_true(result))
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
-    a1.semilogy(t, np.abs(e[:, 0]), label="$|e_1|$ (rad)")
-    a1.semilogy(t, np.abs(e[:, 1]), label="$|e_2|$ (rad/s)")
+    plot_line(a1, t, np.abs(e[:, 0]), label="$|e_1|$ (rad)")
+    plot_line(a1, t, np.abs(e[:, 1]), label="$|e_2|$ (rad/s)")
     for i in range(th.shape[1]):
-        a1.semilogy(t, th[:, i] / theta[i],
+        plot_line(a1, t, th[:, i] / theta[i],
                     label=rf"$|\tilde\theta_{i + 1}|/\theta_{i + 1}$ (–)")
     a1.set_ylabel("errors")
-    legend_outside(a1)
+    a1.set_yscale("log")
+    a1.legend(loc="upper right", ncol=2)
     lyap = _series(result, f"/observer/{obs.name}/lyapunov")
-    a2.semilogy(t, lyap[:, 0], label="$V$ (18)")
-    a2.semilogy(t, lyap[:, 1], "k--", label="$R^2$ (23)")
+    plot_line(a2, t, lyap[:, 0], label="$V$ (18)")
+    plot_line(a2, t, lyap[:, 1], "k--", label="$R^2$ (23)")
+    a2.set_yscale("log")
     a2.set_ylabel("$V$, $R^2$ (–)")
     a2.set_xlabel("$t$ (s)")
-    legend_outside(a2)
+    a2.legend(loc="upper right")
     panel_letters((a1, a2))
     a1.set_title(r"Dimassi et al. - errors, $V$ and the $D_R$ level (not a paper figure)")
     save_figure(fig, path)

@@ -2,8 +2,9 @@
 
 * :func:`check_conditions`: for given L, M, the best P of (8)-(9), i.e. the largest
   r* = lambda_min(Q)/lambda_max(P) with (A - L H)^T P + P (A - L H) = -2 Q and B^T P = M H
-  (quasi-convex: bisection on r of an LMI in (P, s); ``M=None`` leaves M free), and the
-  margin of (10), r* - |B| (K_phi + K_psi |theta|).
+  (quasi-convex: bisection on r of an LMI in (P, s); ``M=None`` leaves M free, and the
+  problem, homogeneous then, is normalised by P <= I: one SDP), and the margin of (10),
+  r* - |B| (K_phi + K_psi |theta|).
 * :func:`lmi28`: the LMI (28), reconstructed (implementation notes A6): minimise rho s.t.
   P >= p_min I, P A - K H + (.)^T <= -nu I, [[rho I, B^T P - M H], [., rho I]] >= 0,
   L = P^-1 K. With ``p_min`` -> 0 the problem is homogeneous and rho* -> 0 even where (9) is
@@ -13,7 +14,10 @@
   (20), (23) (OCR fixes A7, A9: K_psi |theta|, sqrt(V) moved in (21)).
 
 The SDPs reuse the cvxpy + Clarabel set-up and the monotone bisection of
-:mod:`hgo.core.lmi` (shared with Sanfelice & Praly (8)-(10)).
+:mod:`hgo.core.lmi` (shared with Sanfelice & Praly (8)-(10)). cvxpy (~1 s to import) is
+imported by the first SDP solved, and :func:`check_conditions` and :func:`lmi28` are cached
+on disk by their inputs (:func:`hgo.core.memo.disk_cached`): a run or claim whose LMIs were
+solved before neither imports nor solves anything.
 """
 
 from __future__ import annotations
@@ -21,15 +25,26 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-import cvxpy as cp
 import numpy as np
 import scipy.linalg as sla
 
 from hgo.core.lmi import bisect, sym
+from hgo.core.memo import disk_cached
 from hgo.observers.adaptive_cascade import hgo_matrix
 
+if TYPE_CHECKING:
+    import cvxpy as cp
+
 SOLVER = "CLARABEL"
+
+
+def _cvxpy():
+    """cvxpy, imported by the first SDP that is solved (not by importing this module)."""
+    import cvxpy
+
+    return cvxpy
 
 
 @dataclass(frozen=True)
@@ -50,6 +65,7 @@ class ConditionCheck:
 def _solve(problem: cp.Problem) -> bool:
     """Solve; True when (nearly) optimal. Clarabel's "inaccurate" status at the edge of a
     bisection counts as feasible (its warning is silenced: r* is then within rtol)."""
+    cp = _cvxpy()
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", UserWarning)
@@ -59,25 +75,51 @@ def _solve(problem: cp.Problem) -> bool:
     return problem.status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE)
 
 
+@disk_cached
 def check_conditions(A, B, H, L, M=None, rtol: float = 1e-6) -> ConditionCheck:
     """r* = max over P (and M if None) of lambda_min(Q)/lambda_max(P) s.t. (8)-(9).
 
-    LMI at fixed r (variables P, s[, M]): 1e-8 I <= P <= s I, -(1/2)[(A-LH)^T P + P (A-LH)]
-    >= r s I, B^T P = M H; feasibility is monotone in r, and r <= -max Re eig(A - L H).
+    M fixed: B^T P = M H pins the scale of P, so the ratio is maximised by bisection on r of
+    the LMI in (P, s): 1e-8 I <= P <= s I, -(1/2)[(A-LH)^T P + P (A-LH)] >= r s I,
+    B^T P = M H; feasibility is monotone in r, and r <= -max Re eig(A - L H).
+    M free: (8)-(9) are homogeneous in (P, M), so the scale is fixed instead (P <= I: any
+    certificate scaled to lambda_max(P) = 1) and r* is one SDP, max r s.t. 0 <= P <= I,
+    Q >= r I, B^T P = M H. Without that normalisation the solver stopped at P ~ 1e-8 I and
+    r* came out below the M-fixed value (4.99967 against 4.999998 on the Sec. IV example),
+    which a relaxation cannot be.
     """
     A, B, H, L = (np.asarray(v, float) for v in (A, B, H, L))
-    n = A.shape[0]
     acl = A - L @ H
     eig = np.linalg.eigvals(acl)
     alpha = -float(np.max(eig.real))
     if alpha <= 0:
         return ConditionCheck(-math.inf, None, None, None, eig)
+    found = _best_p_free(acl, B, H) if M is None else _best_p_fixed(acl, B, H, M, alpha, rtol)
+    if found is None:
+        return ConditionCheck(-math.inf, None, None, None, eig)
+    P, Mval = found
+    Pv = 0.5 * (P + P.T)
+    Q = -0.5 * (acl.T @ Pv + Pv @ acl)
+    ev_q, ev_p = np.linalg.eigvalsh(Q), np.linalg.eigvalsh(Pv)
+    return ConditionCheck(float(ev_q[0] / ev_p[-1]), Pv, Q, Mval, eig)
+
+
+def _closed_loop_lmi(acl: np.ndarray, P, rhs):
+    """-(1/2)[(A - L H)^T P + P (A - L H)] >= rhs (a cvxpy constraint)."""
+    return -sym(acl.T @ P + P @ acl) / 2 >> rhs
+
+
+def _best_p_fixed(acl, B, H, M, alpha: float, rtol: float):
+    """(P, M) maximising the ratio with M fixed (bisection, see check_conditions); None if
+    infeasible."""
+    cp = _cvxpy()
+    n = acl.shape[0]
     P = cp.Variable((n, n), symmetric=True)
     s = cp.Variable()
     r = cp.Parameter(nonneg=True)
-    Mv = cp.Variable((B.shape[1], H.shape[0])) if M is None else np.asarray(M, float)
+    M = np.asarray(M, float)
     cons = [P >> 1e-8 * np.eye(n), P << s * np.eye(n),
-            -sym(acl.T @ P + P @ acl) / 2 >> r * s * np.eye(n), B.T @ P == Mv @ H]
+            _closed_loop_lmi(acl, P, r * s * np.eye(n)), B.T @ P == M @ H]
     prob = cp.Problem(cp.Minimize(0), cons)
 
     def feasible(value: float) -> bool:
@@ -85,14 +127,25 @@ def check_conditions(A, B, H, L, M=None, rtol: float = 1e-6) -> ConditionCheck:
         return _solve(prob)
 
     if not feasible(0.0):
-        return ConditionCheck(-math.inf, None, None, None, eig)
-    r_star = bisect(feasible, 0.0, alpha * (1 + 1e-9), rtol)
-    feasible(r_star)
-    Pv = 0.5 * (P.value + P.value.T)
-    Q = -0.5 * (acl.T @ Pv + Pv @ acl)
-    Mval = np.asarray(Mv.value if M is None else Mv, float)
-    ev_q, ev_p = np.linalg.eigvalsh(Q), np.linalg.eigvalsh(Pv)
-    return ConditionCheck(float(ev_q[0] / ev_p[-1]), Pv, Q, Mval, eig)
+        return None
+    feasible(bisect(feasible, 0.0, alpha * (1 + 1e-9), rtol))
+    return P.value, M
+
+
+def _best_p_free(acl, B, H):
+    """(P, M) maximising the ratio with M free, P normalised to P <= I (one SDP); None
+    if no P > 0 has Q > 0."""
+    cp = _cvxpy()
+    n = acl.shape[0]
+    P = cp.Variable((n, n), symmetric=True)
+    r = cp.Variable()
+    Mv = cp.Variable((B.shape[1], H.shape[0]))
+    cons = [P >> 0, P << np.eye(n), _closed_loop_lmi(acl, P, r * np.eye(n)),
+            B.T @ P == Mv @ H]
+    prob = cp.Problem(cp.Maximize(r), cons)
+    if not _solve(prob) or not r.value > 0:
+        return None
+    return P.value, np.asarray(Mv.value, float)
 
 
 @dataclass(frozen=True)
@@ -106,8 +159,10 @@ class Lmi28:
     status: str
 
 
+@disk_cached
 def lmi28(A, B, H, L=None, M=None, p_min: float = 1.0, nu: float = 1e-3) -> Lmi28:
     """Dimassi et al. (28) (reconstructed, A6): minimise rho; L, M fixed when given."""
+    cp = _cvxpy()
     A, B, H = (np.asarray(v, float) for v in (A, B, H))
     n, m, nn = A.shape[0], B.shape[1], H.shape[0]
     P = cp.Variable((n, n), symmetric=True)
@@ -129,6 +184,7 @@ def lmi28(A, B, H, L=None, M=None, p_min: float = 1.0, nu: float = 1e-3) -> Lmi2
 
 def lmi_equality(A, B, H, L=None, M=None, nu: float = 1e-3) -> bool:
     """(8)-(9) with (9) as the equality B^T P == M H (P >= I if M is free, else >= 1e-6 I)."""
+    cp = _cvxpy()
     A, B, H = (np.asarray(v, float) for v in (A, B, H))
     n, m, nn = A.shape[0], B.shape[1], H.shape[0]
     P = cp.Variable((n, n), symmetric=True)

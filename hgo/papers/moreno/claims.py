@@ -35,8 +35,8 @@ R_A2 = "A2: psi = s^3 - 2 s (A12 = 1)"
 R_A3 = "A3: c = 2 lam_H / lam_m (lambda_P = lam_m / 2)"
 R_A5 = "A5 R2: K~1 = max(K1, K1^a + delta/2), delta = 0.1"
 R_A13 = "A13: eps = 0.99 eps_max(K~1), P = argmax lambda_min(P)"
-R_IN = ("A10: Fig. 1 input = pulse (x2 = 0 for 5 s, smooth ramp to 2 over 0.5 s, "
-        "held)")
+R_IN = ("A10: Fig. 1 input = pulse (x2 = 0 for 5 s, linear ramp to 2 over 0.5 s, "
+        "held; its corners break points of the integration)")
 
 
 def _pe(*extra: str) -> tuple[str, ...]:

@@ -70,7 +70,7 @@ class ProfileInputConf:
     amp: float = 2.0
     omega: float = 1.0
     t_back: float = 9.0
-    ramp: str = "smooth"
+    ramp: str = "linear"
 
 
 @dataclass

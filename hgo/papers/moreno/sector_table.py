@@ -110,32 +110,48 @@ def wide_table(metrics: pd.DataFrame) -> pd.DataFrame:
                             aggfunc="first", sort=False)
 
 
+METHOD_LABELS = {"K1a_sdp": "LMI (7a), by SDP", "K1a_fd": "exact SPR test (frequency domain)",
+                 "K1a_closed": "closed form"}
+
+
+def gains_label(name: str, sep: str = "\n") -> str:
+    """``k=2 l1=200 l2=120 a=0`` (:func:`label`) in the paper's notation, one per line."""
+    symbols = {"k": "k", "l1": "l_1", "l2": "l_2", "a": "a"}
+    parts = [p.split("=", 1) for p in name.split()]
+    return sep.join(f"${symbols.get(k, k)} = {v}$" for k, v in parts)
+
+
 def sector_figure(result, path) -> None:
-    """``sector_table.csv`` beside ``path`` and a PNG: K1^a by SDP / exact SPR / closed form
-    per gain set, and eps_max(rho) by LMI and by the SPR test."""
+    """``sector_table.csv`` beside ``path`` and a figure: K1^a by SDP / exact SPR / closed
+    form per gain set, and eps_max(rho) by LMI and by the SPR test."""
     import matplotlib.pyplot as plt
+
+    from hgo.outputs.figures import PALETTE
 
     table = wide_table(result.metrics)
     table.to_csv(path.with_suffix(".csv"))
     sets = table.dropna(subset=["K1a_sdp"])
-    fig, axes = plt.subplots(1, 2, figsize=(12, 4.5))
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.8), gridspec_kw={"width_ratios": [3, 2]})
     x = np.arange(len(sets))
     for off, col, mk in ((-0.2, "K1a_sdp", "o"), (0.0, "K1a_fd", "s"), (0.2, "K1a_closed", "^")):
-        axes[0].plot(x + off, sets[col], mk, label=col)
-    axes[0].axhline(K1_EXAMPLE, color="k", lw=0.8, ls="--", label="K1 = -2 (nonlinearity)")
-    axes[0].set_xticks(x, sets.index, rotation=30, ha="right", fontsize=7)
-    axes[0].set_ylabel("K1^a (stability sector (K1^a, inf])")
-    axes[0].legend(fontsize=8)
+        axes[0].plot(x + off, sets[col], mk, label=METHOD_LABELS[col])
+    axes[0].axhline(K1_EXAMPLE, color="k", lw=0.8, ls="--",
+                    label=r"$K_1 = -2$ (the example's nonlinearity)")
+    axes[0].set_xticks(x, [gains_label(name) for name in sets.index], fontsize=7)
+    axes[0].set_ylabel(r"$K_1^a$ of the stability sector $(K_1^a, \infty]$ (–)")
+    axes[0].set_xlabel("gain set (the notes' table)")
+    axes[0].legend(fontsize=8, loc="lower left")
     cols = [c for c in table.columns if c.startswith("eps_max_lmi_rho=")]
     if cols:
         rho = [float(c.split("=")[1]) for c in cols]
         row = table.loc[table[cols].notna().all(axis=1)].iloc[0]
-        axes[1].plot(rho, [row[c] for c in cols], "o-", label="LMI (7a)")
-        axes[1].plot(rho, [row[c.replace("lmi", "fd")] for c in cols], "x--",
+        axes[1].plot(rho, [row[c] for c in cols], "o-", color=PALETTE["blue"], lw=2.5,
+                     alpha=0.6, label="LMI (7a)")
+        axes[1].plot(rho, [row[c.replace("lmi", "fd")] for c in cols], "x--", color="k",
                      label="exact SPR test")
-        axes[1].set_xlabel("rho (sector [rho, inf])")
-        axes[1].set_ylabel("eps_max(rho)")
-        axes[1].set_title(row.name, fontsize=9)
+        axes[1].set_xlabel(r"$\rho$ of the sector $[\rho, \infty]$ (–)")
+        axes[1].set_ylabel(r"$\varepsilon_{\max}(\rho)$ (–)")
+        axes[1].set_title(gains_label(row.name, ", "), fontsize=9)
         axes[1].legend(fontsize=8)
     for ax in axes:
         ax.grid(alpha=0.3)

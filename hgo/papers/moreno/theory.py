@@ -33,11 +33,13 @@ import functools
 import warnings
 from dataclasses import dataclass
 
-import cvxpy as cp
 import numpy as np
 from scipy import signal
 
-from hgo.core.lmi import bisect, sym
+from hgo.core.lmi import LazyCvxpy, bisect, sym
+from hgo.core.memo import disk_cached
+
+cp = LazyCvxpy()  # imported by the first LMI solved, not with this module
 
 SOLVER = "CLARABEL"
 FEAS_TOL = 1e-9  # t* >= -FEAS_TOL: (7a) feasible (non-strict)
@@ -152,6 +154,7 @@ def lmi_7a(es: ErrorSystem, K1: float, eps: float, mu: float = 1e-7) -> Lmi7aRes
     return Lmi7aResult(bool(t >= -FEAS_TOL), t, P)
 
 
+@disk_cached
 def eps_max_lmi(es: ErrorSystem, K1: float, rtol: float = 1e-6, mu: float = 1e-7,
                 cap: float = 1e4) -> float:
     """sup{eps : (7a) feasible at K1} by doubling then bisection (relative ``rtol``);
@@ -173,6 +176,7 @@ def eps_max_lmi(es: ErrorSystem, K1: float, rtol: float = 1e-6, mu: float = 1e-7
     return bisect(ok, lo, hi, rtol)
 
 
+@disk_cached
 def k1a_sdp(es: ErrorSystem, mu: float = 1e-7, bound: float = 1e3) -> float:
     """K1^a by one SDP (notes 6.1, r = 1): min rho s.t. (7a) at (rho, eps = 0).
     Returns -inf when rho reaches -bound (unbounded below) and +inf if infeasible."""
@@ -290,6 +294,7 @@ def paper_spr_condition(k: float, l1: float, l2: float, a: float, rho: float) ->
 
 
 # ------------------------------------------------------------- (8) over the gains
+@disk_cached
 def k1a_over_gains(A, G, C, H, rho_lo: float = -50.0, eps0: float = 1e-4, mu: float = 1e-4,
                    tol: float = 1e-4) -> tuple[float, np.ndarray | None, float | None]:
     """inf over (L, N) of K1^a, rho < 0 only (notes 6.3): bisection on the LMI in

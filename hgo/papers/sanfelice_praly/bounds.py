@@ -72,6 +72,8 @@ from typing import Literal
 
 import numpy as np
 
+from hgo.core.lmi import MAX_ROUNDS, require_finite
+
 __all__ = [
     "Reading14",
     "SPSetup",
@@ -357,6 +359,7 @@ def minimise_over_s(
     n_grid : int
         Number of log-spaced grid points.
     """
+    require_finite("the bound's domain (Sanfelice & Praly (14): s > s_min)", s_min=s_min)
     u = np.linspace(np.log(s_min) + 1e-9, np.log(s_min * s_max_factor), n_grid)
     k, grid_v = _grid_min(log_f, u)
     best_u, best_v = _zoom(log_f, u[max(k - 1, 0)], u[min(k + 1, n_grid - 1)])
@@ -370,13 +373,20 @@ def _zoom(log_f: Callable[[np.ndarray], np.ndarray], lo: float, hi: float,
     """Minimiser and minimum of ``log_f(exp(u))`` over ``u`` in ``[lo, hi]``, by zooming:
     ``n`` points per round, the bracket shrunk to the two cells around the smallest value
     (a factor (n - 1) / 2 per round) until narrower than ``xatol``. Vectorised, so a
-    handful of calls instead of scipy's ~50 scalar ones (and no scipy.optimize import)."""
-    while True:
+    handful of calls instead of scipy's ~50 scalar ones (and no scipy.optimize import).
+    Stops after :data:`hgo.core.lmi.MAX_ROUNDS` rounds or when float spacing is reached; a
+    NaN/inf bracket raises (``hi - lo < xatol`` is never true for NaN: it looped forever)."""
+    require_finite("minimising the bound over s (Sanfelice & Praly (14))", lo=lo, hi=hi)
+    for _ in range(MAX_ROUNDS):
         u = np.linspace(lo, hi, n)
         k, v = _grid_min(log_f, u)
         if hi - lo < xatol:
-            return float(u[k]), float(v)
-        lo, hi = u[max(k - 1, 0)], u[min(k + 1, n - 1)]
+            break
+        new_lo, new_hi = u[max(k - 1, 0)], u[min(k + 1, n - 1)]
+        if (new_lo, new_hi) == (lo, hi):  # float spacing reached
+            break
+        lo, hi = new_lo, new_hi
+    return float(u[k]), float(v)
 
 
 def _grid_min(log_f: Callable[[np.ndarray], np.ndarray], u: np.ndarray) -> tuple[int, float]:

@@ -173,6 +173,10 @@ def sp_bounds(P: Sequence[Sequence[float]] = PAPER_P, d0: float = 0.95, d1: floa
     P = np.asarray(P, float)
     if P.ndim != 2 or P.shape[0] != P.shape[1] or not np.allclose(P, P.T):
         raise ValueError("postprocess.sp_bounds.P must be a symmetric square matrix")
+    if not np.all(np.isfinite(P)) or np.linalg.eigvalsh(P).min() <= 0:
+        eig = np.linalg.eigvalsh(P) if np.all(np.isfinite(P)) else P.ravel()
+        raise ValueError("postprocess.sp_bounds.P must be positive definite (Sanfelice & "
+                         f"Praly (8)-(10)), got eigenvalues {np.round(eig, 6).tolist()}")
     if not (d0 > 0 and d1 > 0):
         raise ValueError(f"postprocess.sp_bounds: d0, d1 must be > 0 (8), got {d0}, {d1}")
     if M_inf is None or not M_inf >= 0:
