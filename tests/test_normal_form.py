@@ -136,13 +136,14 @@ def test_saturation_clips_only_what_phi0_sees() -> None:
 
 
 def test_tutorial_file_runs_from_the_users_directory() -> None:
-    """examples/vdp as a user runs it (their folder on the import path, their config dir):
-    the same metrics as hgo's own preset vdp_hgo (the same experiment)."""
+    """examples/vdp as README runs it: ``hgo run --config-dir mine experiment=vdp`` from
+    that folder (its vdp.py found there, nothing else on the path but hgo itself); the same
+    metrics as hgo's own preset vdp_hgo (the same experiment)."""
     here = ROOT / "examples" / "vdp"
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), "."]))
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
     with __import__("tempfile").TemporaryDirectory() as tmp:
         res = subprocess.run([sys.executable, "-c", "from hgo.cli import main; main()", "run",
-                              "hydra.searchpath=[file://mine]", "experiment=vdp",
+                              "--config-dir", "mine", "experiment=vdp",
                               f"hydra.run.dir={tmp}"], cwd=here, env=env,
                              capture_output=True, text=True, timeout=600)
         assert res.returncode == 0, res.stderr[-2000:]
