@@ -121,7 +121,7 @@ def test_saturation_clips_only_what_phi0_sees() -> None:
     """With saturation 5 (the estimates peak at ~90), both observers follow the clipped
     model of the reference; the peak of x^3 itself is not clipped."""
     plant = jerk_plant()
-    observers = [f("o", 3, ell=20.0, phi0=jerk_phi0, model={"A": A}, saturation=5.0)
+    observers = [f("o", 3, ell=20.0, phi0=jerk_phi0, model_params={"A": A}, saturation=5.0)
                  for f in (standard_hgo, lowpower_hgo)]
     observers[1].name = "lp"
     solver = SolverSettings(t_end=1.0, dt_out=0.0005, method="dop853", rtol=1e-10,
@@ -180,7 +180,7 @@ def test_user_phi0_numba_cannot_compile_runs_in_python_with_one_warning() -> Non
     assert traj.ok
     ref = simulate(System(van_der_pol_plant(), [standard_hgo(
         "s", 2, eps=0.1, phi0=__import__("hgo.plants.van_der_pol", fromlist=["phi0"]).phi0,
-        model={"mu": 1.0})]), solver, no_noise(1))
+        model_params={"mu": 1.0})]), solver, no_noise(1))
     np.testing.assert_allclose(traj.xh, ref.xh, rtol=1e-9, atol=1e-12)
 
 

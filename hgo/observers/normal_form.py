@@ -6,7 +6,8 @@ The plant, of order n >= 2:
 
 with phi0 the user's function ``phi0(x, u, p) -> float`` (x the estimate fed to it, u the
 plant's inputs, p this observer's parameters: a function reads model constants such as
-``p.mu`` that the observer declares in ``model``), or 0 (a chain of integrators).
+``p.mu`` that the observer declares in ``model_params``), or 0 (a chain of integrators).
+In a config: ``phi0: {_target_: module.function, _partial_: true}``.
 
 * :func:`standard_hgo`, the standard high-gain observer (Khalil's form):
 
@@ -46,13 +47,12 @@ not, from n = 4 on (e.g. K_i = (2, 1): +0.099 ell at n = 4).
 
 from __future__ import annotations
 
-import functools
 import math
 from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from hgo.core.components import Observer, Params
+from hgo.core.components import Observer, Params, user_function
 
 
 def zero_phi0(x, u, p):  # noqa: ARG001 - the signature of phi0
@@ -152,16 +152,12 @@ def lowpower_error_matrix(n: int, ell: float, K: np.ndarray) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------- factories
-def _user_function(phi0: Callable | float | None, key: str) -> Callable:
-    """phi0 as the kernel calls it: the user's function (a Hydra ``_partial_`` without
-    arguments unwrapped), or :func:`zero_phi0` for 0 / None."""
+def _phi0(phi0: Callable | float | None, key: str) -> Callable:
+    """phi0 as the kernel calls it: the user's function (:func:`user_function`: a callable
+    or ``{_target_: module.function, _partial_: true}``), or :func:`zero_phi0` for 0 / None."""
     if phi0 is None or (isinstance(phi0, (int, float)) and phi0 == 0):
         return zero_phi0
-    if isinstance(phi0, functools.partial) and not phi0.args and not phi0.keywords:
-        phi0 = phi0.func
-    if not callable(phi0):
-        raise ValueError(f"{key}.phi0 must be a function phi0(x, u, p) or 0, got {phi0!r}")
-    return phi0
+    return user_function(f"{key}.phi0", phi0)
 
 
 def _gain(eps: float | None, ell: float | None, key: str) -> float:
@@ -175,8 +171,9 @@ def _gain(eps: float | None, ell: float | None, key: str) -> float:
     return float(value)
 
 
-def _common(key: str, n: int, phi0, saturation, model, xhat0) -> tuple[dict, dict, np.ndarray]:
-    """Constants (n, phi0, saturate), run-time values (sat_level, model) and x^(0)."""
+def _common(key: str, n: int, phi0, saturation, model_params,
+            xhat0) -> tuple[dict, dict, np.ndarray]:
+    """Constants (n, phi0, saturate), run-time values (sat_level, model_params), x^(0)."""
     if not (isinstance(n, int) and n >= 2):
         raise ValueError(f"{key}.n must be an integer >= 2, got {n!r}")
     level = np.full(n, np.inf) if saturation is None else np.broadcast_to(
@@ -187,8 +184,8 @@ def _common(key: str, n: int, phi0, saturation, model, xhat0) -> tuple[dict, dic
     x0 = np.zeros(n) if xhat0 is None else np.asarray(xhat0, float).reshape(-1)
     if x0.shape != (n,) or not np.all(np.isfinite(x0)):
         raise ValueError(f"{key}.xhat0 must have n = {n} finite entries, got {xhat0}")
-    constants = {"n": n, "phi0": _user_function(phi0, key), "saturate": saturation is not None}
-    return constants, {"sat_level": level, **dict(model or {})}, x0
+    constants = {"n": n, "phi0": _phi0(phi0, key), "saturate": saturation is not None}
+    return constants, {"sat_level": level, **dict(model_params or {})}, x0
 
 
 def _work_names(constants: dict) -> list[str]:
@@ -200,14 +197,14 @@ def _work_names(constants: dict) -> list[str]:
 def standard_hgo(name: str, n: int, eps: float | None = None, ell: float | None = None,
                  phi0: Callable | float | None = 0.0, roots: Sequence[float] | None = None,
                  saturation: float | Sequence[float] | None = None,
-                 model: dict | None = None,
+                 model_params: dict | None = None,
                  xhat0: Sequence[float] | None = None) -> Observer:
     """The standard high-gain observer (module doc) of order n, gain 1/eps (or ell).
 
-    ``model``: named run-time values phi0 may read (``p.mu``)."""
+    ``model_params``: named run-time values phi0 may read (``p.mu``)."""
     key = f"observer.{name}"
     gain = _gain(eps, ell, key)
-    constants, values, x0 = _common(key, n, phi0, saturation, model, xhat0)
+    constants, values, x0 = _common(key, n, phi0, saturation, model_params, xhat0)
     alpha = hurwitz_alpha(n, roots)
     constants["alpha"] = tuple(alpha.tolist())
     radius = gain * float(np.max(np.abs(np.roots(np.concatenate([[1.0], alpha])))))
@@ -222,14 +219,14 @@ def standard_hgo(name: str, n: int, eps: float | None = None, ell: float | None 
 def lowpower_hgo(name: str, n: int, ell: float | None = None, eps: float | None = None,
                  phi0: Callable | float | None = 0.0, K: Sequence[Sequence[float]] | None = None,
                  saturation: float | Sequence[float] | None = None,
-                 model: dict | None = None,
+                 model_params: dict | None = None,
                  xhat0: Sequence[float] | None = None) -> Observer:
     """Astolfi & Marconi's low-power high-gain observer (module doc) of order n, gain ell
     (or 1/eps), gains K ((n-1) x 2; default :func:`lowpower_default_gains`). x^(0) =
     ``xhat0`` (block i starts at (x^i(0), x^(i+1)(0)))."""
     key = f"observer.{name}"
     gain = _gain(eps, ell, key)
-    constants, values, x0 = _common(key, n, phi0, saturation, model, xhat0)
+    constants, values, x0 = _common(key, n, phi0, saturation, model_params, xhat0)
     K = lowpower_default_gains(n) if K is None else np.asarray(K, float)
     if K.shape != (n - 1, 2) or not np.all(np.isfinite(K)):
         raise ValueError(f"{key}.K must be n - 1 = {n - 1} pairs (k_i1, k_i2), got "
