@@ -7,4 +7,4 @@ import sys
 from hgo.cli import run_app
 
 if __name__ == "__main__":
-    run_app(sys.argv[1:], prog=sys.argv[0])
+    raise SystemExit(run_app(sys.argv[1:], prog=sys.argv[0]))

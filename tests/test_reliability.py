@@ -62,6 +62,9 @@ def test_sp_bounds_refuses_a_p_that_is_not_positive_definite():
 SP = "experiment=sp_fig1"
 ENS = "experiment=sp_ensemble"
 APA = "experiment=apa_fig1"
+APA2 = "experiment=apa_fig2"
+DHLM = "experiment=dhlm_example"
+MORENO = "experiment=moreno_pe"
 GRID = "experiment=sp_fig3_grid"
 SI = "observer.sign_indefinite"
 GRID10 = "[" + ",".join(str(k) for k in range(10)) + "]"
@@ -84,6 +87,8 @@ CORPUS: list[tuple[tuple[str, ...], str]] = [
     ((SP, "+recording.foo=1"), "recording.foo: is not a key of recording"),
     ((ENS, "+ensemble.foo=1"), "ensemble.foo: is not a key of ensemble"),
     ((SP, "+figures.foo=1"), "figures.foo: must be a figure node with a _target_"),
+    ((SP, "+foo=1"), "foo: is not a key hgo reads, and nothing in the config interpolates it"),
+    ((SP, "+sed=3"), "sed: is not a key hgo reads"),
     ((SP, "+figures.fig1.bogus=1"), "figures.fig1.bogus: is not a parameter of "
                                     "hgo.papers.sanfelice_praly.figures.fig1"),
     # tolerances and physical parameters in range
@@ -107,12 +112,47 @@ CORPUS: list[tuple[tuple[str, ...], str]] = [
     ((GRID, "ensemble.shard=3/4"), "ensemble.shard: '3/4' splits 3 member(s) into 4 shards"),
     ((GRID, "ensemble.shard=1/0"), "ensemble.shard must be 'i/N'"),
     ((GRID, "ensemble.shard=x"), "ensemble.shard must be 'i/N'"),
+    # the newer papers' presets, per config group (values checked before the run)
+    ((APA2, "plant.eta0=[0.7,0.7]"), "plant.eta0 must be > 0 with eta1 + eta2 <= 1"),
+    ((APA2, "observer.omega2.p=1.5"), "observer.omega2.p must be in [0, 1/(n-1))"),
+    ((APA2, "observer.omega2.u_min=0.8"), "need 0 < u_min < u_max < 1"),
+    ((APA2, "observer.omega2.eta_hat0=[0.6,0.6]"), "observer.omega2.eta_hat0"),
+    ((APA2, "observer.omega2.L0=0"), "observer.omega2.L0 must be null"),
+    ((APA2, "observer.omega2.gain=bogus"), "observer.omega2.gain: 'bogus' not in"),
+    ((APA2, "noise.std=-1"), "noise.std: must be >= 0"),
+    ((APA2, "noise.channels=[3]"), "noise.channels: 3 is not a channel"),
+    ((APA2, "postprocess.apa.late=[50,40]"), "postprocess.apa.late must be [a, b]"),
+    ((APA2, "postprocess.apa.post=[0,100]"),
+     "postprocess.apa.post = [0.0, 100.0] ends after solver.t_end = 50"),
+    ((APA2, "+postprocess.apa.foo=1"), "postprocess.apa.foo: is not a parameter of"),
+    ((DHLM, "observer.cascade.eps=-1"), "observer.cascade.eps must be in (0, 1)"),
+    ((DHLM, "observer.cascade.S=[0,0]"), "observer.cascade.S must be 2 levels"),
+    ((DHLM, "observer.cascade.L=[[1]]"), "observer.cascade.L must be a 2x2 matrix"),
+    ((DHLM, "observer.cascade.psi_at=bogus"), "observer.cascade.psi_at must be one of"),
+    ((DHLM, "observer.cascade.gamma=[[nan,1]]"), "observer.cascade.gamma[0][0]"),
+    ((DHLM, "plant.m=-1"), "plant.m must be in (0, inf)"),
+    ((DHLM, "plant.outputs=bogus"), "plant.outputs must be one of"),
+    ((DHLM, "controller.omega=[1]"), "controller.a must have 1 entries"),
+    ((DHLM, "postprocess.dhlm.window_start=1e9"),
+     "postprocess.dhlm.window_start must be in (0, t_end=20)"),
+    ((DHLM, "postprocess.dhlm.beta=bogus"), "postprocess.dhlm.beta must be"),
+    ((MORENO, "observer.circle.e0=[1]"), "observer.circle.e0 must have n=2"),
+    ((MORENO, "controller.kind=bogus"), "controller.kind: 'bogus' not in"),
+    ((MORENO, "controller.tau=0"), "controller.tau must be > 0"),
+    ((MORENO, "controller.ramp=bogus"), "controller.ramp: 'bogus' not in"),
+    ((MORENO, "postprocess.moreno.regularisation=bogus"),
+     "postprocess.moreno.regularisation must be 'margin' or 'decay'"),
+    ((MORENO, "postprocess.moreno.eps_fraction=2"), "postprocess.moreno.eps_fraction"),
+    ((MORENO, "postprocess.moreno.lambda_P=bogus"), "postprocess.moreno.lambda_P"),
+    ((MORENO, "plant.x0=[nan,0]"), "plant.x0[0]: must be a number, got nan"),
 ]
 
 
 def test_cleared_vary_and_the_last_shard_are_accepted():
     """What the refusals point to works: ``ensemble.vary=null`` clears the preset's vary;
-    shard 2/3 of 3 members is one member."""
+    shard 2/3 of 3 members is one member; a top-level helper key that an entry
+    interpolates stays allowed (``readings`` of apa_fig2)."""
+    assert _config_line((SP, "+helper=3", "++seed=${helper}")) == "(accepted)"
     assert _config_line((ENS, "ensemble.vary=null", "ensemble.size=2")) == "(accepted)"
     assert _config_line((GRID, "ensemble.shard=2/3")) == "(accepted)"
 
@@ -427,3 +467,53 @@ def test_export_reports_bad_recordings_and_a_missing_folder(runs_root, capsys):
     assert (code, err) == (2, "error: --out: folder missing does not exist\n")
     code, out, _ = _hgo(capsys, "export", "outputs/good")
     assert code == 0 and out.startswith("wrote outputs/good/recording.csv (100 rows")
+
+
+# --- long lists: short lines, fast refusals -------------------------------------------
+
+
+def test_a_long_list_in_an_error_is_summarised():
+    """A 20,000-element plant.x0 printed a 100 KB "one line"."""
+    from hgo.core.errors import ConfigError, one_line
+
+    err = ConfigError("plant.x0", f"must have 2 entries [x1, x2], got {[1.0] * 20000}")
+    assert one_line(err) == ("plant.x0: must have 2 entries [x1, x2], got [1.0, 1.0, 1.0, "
+                             "1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, ... (20,000 "
+                             "values)]")
+    assert len(one_line(ValueError("x" * 100_000))) <= 600
+
+
+def test_a_long_list_in_a_preset_is_refused_in_seconds_naming_its_key(tmp_path):
+    """From a preset (the command line is refused, below): Hydra's instantiate took ~0.4 ms
+    a list element; the factory's check now runs on the plain list. (Composing the preset
+    itself costs OmegaConf ~1-3 ms a value, not changed: 2,000 values here.)"""
+    import time
+
+    (tmp_path / "experiment").mkdir()
+    (tmp_path / "experiment" / "big.yaml").write_text(
+        "# @package _global_\ndefaults:\n  - sp_fig1\nplant:\n  x0: ["
+        + ", ".join(["1.0"] * 2000) + "]\n")
+    t0 = time.perf_counter()
+    line = _config_line((f"hydra.searchpath=[file://{tmp_path}]", "experiment=big"))
+    assert time.perf_counter() - t0 < 15
+    assert line.startswith("plant.x0") and line.endswith("(2,000 values)]"), line
+
+
+def test_a_long_override_is_refused_before_hydra_parses_it(tmp_path):
+    """Hydra's override parser took 132 s on a 20,000-value plant.x0 (load ~8)."""
+    done = _cli(["experiment=sp_fig1", "plant.x0=[" + ",".join(["1.0"] * 20000) + "]"],
+                tmp_path, timeout=60)
+    assert done.returncode == 2
+    assert done.stderr.startswith("error: plant.x0: the override is 80,010 characters "
+                                  "(~20,000 values), over 20,000") and done.stderr.count("\n") == 1
+
+
+def test_view_skips_a_file_that_is_not_a_recording(runs_root, capsys):
+    """``hgo view`` handed a foreign file to the viewer; now one line each, the others go
+    on (``--print-command``: the viewer is not started)."""
+    code, out, err = _hgo(capsys, "view", "notrrd.rrd", "outputs/good", "--print-command")
+    assert code == 0 and out.strip().splitlines()[-1].endswith(" outputs/good/recording.rrd")
+    assert err == "skipped: notrrd.rrd: not a Rerun recording (unreadable or another file)\n"
+    code, _, err = _hgo(capsys, "view", "notrrd.rrd")
+    assert code == 2 and err.strip().splitlines()[-1] == (
+        "error: no readable recording among notrrd.rrd")

@@ -32,6 +32,14 @@ def run_app(args: list[str], prog: str = "hgo run") -> int:
         gc.freeze()  # (later full passes skip them too)
         gc.enable()
 
+    from hgo.core.config import check_override_lengths
+    from hgo.core.errors import ConfigError
+
+    try:
+        check_override_lengths(args)
+    except ConfigError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
     sys.argv = [prog, *args]
     signal.signal(signal.SIGTERM, _terminated)
     cli_main()

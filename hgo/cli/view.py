@@ -51,11 +51,35 @@ def _natural(part: str) -> tuple:
     return (part[: len(part) - len(digits)], int(digits)) if digits.isdigit() else (part, -1)
 
 
-def all_recordings(runs: list[Path]) -> list[Path]:
-    """The recordings of every RUN, each file once, in the order given."""
+RRD_MAGIC = b"RRF"  # the first bytes of every Rerun recording file
+
+
+def is_recording_file(path: Path) -> bool:
+    """Whether ``path`` may be a Rerun recording: it starts as one, or is empty (left to
+    the viewer); a foreign or overwritten file does not."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(len(RRD_MAGIC))
+    except OSError:
+        return False
+    return head in (RRD_MAGIC, b"")
+
+
+def all_recordings(runs: list[Path], skipped: list[str] | None = None) -> list[Path]:
+    """The recordings of every RUN, each file once, in the order given; a file that is not
+    a Rerun recording is left out when ``skipped`` is given (its one line appended there),
+    and then none left raises :class:`NoRecording`."""
     files: list[Path] = []
     for run in runs:
-        files += [p for p in recordings(run) if p not in files]
+        for path in recordings(run):
+            if path in files:
+                continue
+            if skipped is None or is_recording_file(path):
+                files.append(path)
+            else:
+                skipped.append(f"{path}: not a Rerun recording (unreadable or another file)")
+    if not files:
+        raise NoRecording("no readable recording among " + ", ".join(map(str, runs)))
     return files
 
 
@@ -114,12 +138,17 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--print-command", action="store_true",
                         help="print the Rerun command instead of running it")
     args = parser.parse_args(argv)
+    skipped: list[str] = []
     try:
-        files = all_recordings(args.runs)
+        files = all_recordings(args.runs, skipped)
         command = viewer_command(files, args.web, args.web_port, args.grpc_port, args.bind)
     except NoRecording as err:
+        for line in skipped:
+            print(f"skipped: {line}", file=sys.stderr)
         print(f"error: {err}", file=sys.stderr)
         return 2
+    for line in skipped:  # one line each; the others are shown
+        print(f"skipped: {line}", file=sys.stderr)
     print(f"view: {len(files)} recording(s), each its own recording in the viewer")
     if args.web:
         print("\n".join(web_instructions(args.web_port, args.grpc_port)))

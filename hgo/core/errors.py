@@ -76,8 +76,41 @@ def _missing_config_line(err) -> str:
     return _first_line(str(err))
 
 
+#: Longest list shown in an error line before it is summarised, and longest line.
+MAX_LIST_CHARS, MAX_LINE_CHARS = 120, 600
+
+
+def _shorten_lists(line: str) -> str:
+    """Each bracketed list longer than :data:`MAX_LIST_CHARS` characters as its start and
+    its count (a 20,000-element ``plant.x0`` made a 100 KB "one line")."""
+    out, i = [], 0
+    while (start := line.find("[", i)) >= 0:
+        depth, end, commas = 0, start, 0
+        for end in range(start, len(line)):
+            depth += {"[": 1, "]": -1}.get(line[end], 0)
+            commas += line[end] == "," and depth == 1
+            if depth == 0:
+                break
+        if depth != 0 or end - start <= MAX_LIST_CHARS:
+            out.append(line[i:end + 1])
+            i = end + 1
+            continue
+        head = line[start:start + MAX_LIST_CHARS // 2].rsplit(",", 1)[0]
+        out.append(f"{line[i:start]}{head}, ... ({commas + 1:,} values)]")
+        i = end + 1
+    out.append(line[i:])
+    text = "".join(out)
+    return text if len(text) <= MAX_LINE_CHARS else text[:MAX_LINE_CHARS - 30] + \
+        f"... ({len(text):,} characters)"
+
+
 def one_line(err: BaseException) -> str:
-    """The error as one line naming the full key where one is known."""
+    """The error as one line naming the full key where one is known, long lists
+    summarised (:func:`_shorten_lists`)."""
+    return _shorten_lists(_one_line(err))
+
+
+def _one_line(err: BaseException) -> str:
     from hydra.errors import MissingConfigException
     from omegaconf.errors import OmegaConfBaseException
 

@@ -110,6 +110,26 @@ def check_known_keys(container: Mapping) -> None:
                                   ", ".join(allowed))
 
 
+#: Top-level keys hgo reads; a preset may add others only for its own interpolations
+#: (``readings`` in apa_fig2: ``${readings.c3}``).
+TOP_LEVEL = ("plant", "observer", "noise", "controller", "postprocess", "solver", "metrics",
+             "ensemble", "recording", "figures", "run_name", "resume", "seed", "hydra")
+
+
+def check_top_level_keys(cfg: DictConfig) -> None:
+    """A top-level key that hgo does not read and no entry interpolates (``+foo=1``, a typo
+    like ``+sed=3``) did nothing, silently."""
+    extra = [k for k in cfg if k not in TOP_LEVEL]
+    if not extra:
+        return
+    text = OmegaConf.to_yaml(OmegaConf.create(
+        {k: cfg._get_node(k) for k in cfg if k != "hydra"}), resolve=False)
+    for key in extra:
+        if "${" + str(key) not in text and key != "experiment":
+            raise ConfigError(str(key), "is not a key hgo reads, and nothing in the config "
+                              "interpolates it", ", ".join(TOP_LEVEL[:-1]))
+
+
 def check_package_header(container: Mapping) -> None:
     """An experiment preset without ``# @package _global_`` lands under ``experiment.``,
     where nothing reads it: its values were silently not applied."""
@@ -157,6 +177,7 @@ def check_values(cfg: DictConfig) -> dict:
     """All value checks of the composed config; returns it resolved (without ``hydra``)."""
     container = job_container(cfg)
     check_package_header(container)
+    check_top_level_keys(cfg)
     check_known_keys(container)
     check_empty_dict_overrides(cfg, container)
     check_numbers(container)

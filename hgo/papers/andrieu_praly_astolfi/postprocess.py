@@ -112,6 +112,16 @@ class APAMetrics:
                                          (38.0, 50.0))
     thresholds: Sequence[float] = (0.1, 0.01)
 
+    def check(self, system: System, solver, key: str) -> None:  # noqa: ARG002
+        """Every window inside the run, before it (``post=[0, 100]`` of a 50 s run was
+        measured over [0, 50] without a word)."""
+        spans = {"late": self.late, "post": self.post, "transient": self.transient,
+                 **{f"steady[{k}]": w for k, w in enumerate(self.steady)}}
+        for name, (_, b) in spans.items():
+            if b > solver.t_end + 1e-9:
+                raise ValueError(f"{key}.{name} = {list(spans[name])} ends after "
+                                 f"solver.t_end = {solver.t_end:g}")
+
     def apply(self, system: System, traj: Trajectory) -> PostOutput:
         t, u, y = traj.t, np.ascontiguousarray(traj.u[:, 0]), np.ascontiguousarray(traj.y[:, 0])
         eta1, eta2 = (np.ascontiguousarray(traj.z[:, i]) for i in (0, 1))

@@ -123,6 +123,12 @@ class DHLMMetrics:
         if self.beta not in ("measured", "analytic"):
             raise ValueError(f"{key}.beta must be 'measured' or 'analytic', got '{self.beta}'")
 
+    def check(self, system: System, solver, key: str) -> None:  # noqa: ARG002
+        """``window_start`` inside the run, before it (checked only after the run before)."""
+        if not self.window_start < solver.t_end:
+            raise ValueError(f"{key}.window_start must be in (0, t_end={solver.t_end:g}), "
+                             f"got {self.window_start}")
+
     def true_theta(self, system: System) -> np.ndarray:
         if self.theta is not None:
             return np.asarray(self.theta, float)

@@ -236,6 +236,9 @@ def moreno_certificate(lambda_P: str = "half_min_eig", delta: float = 0.1,
                        norm_floor: float = 1e-6, K1t_search: bool = False,
                        mu: float = 1e-7) -> MorenoCertificate:
     """Factory of the ``postprocess`` group option ``moreno_certificate``."""
+    if regularisation not in ("margin", "decay"):  # (was checked only after the run)
+        raise ValueError("postprocess.moreno.regularisation must be 'margin' or 'decay', "
+                         f"got '{regularisation}'")
     return MorenoCertificate(lambda_P, float(delta), regularisation, float(eps_fraction),
                              None if K1t is None else float(K1t),
                              None if window is None else float(window),
