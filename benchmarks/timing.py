@@ -12,18 +12,20 @@ def median_time(fn, reps: int) -> tuple[float, object]:
     return result
 
 
-def interleaved_median_times(fns: list, reps: int) -> list[tuple[float, object]]:
+def interleaved_median_times(fns: list, reps: int,
+                             clock=time.perf_counter) -> list[tuple[float, object]]:
     """(median time, last result) of each function, the functions called in turn.
 
     Interleaving puts every function into the same stretches of this machine's drifting
-    speed, so the ratios of the medians compare code, not moments."""
+    speed, so the ratios of the medians compare code, not moments. ``clock``: wall time
+    by default."""
     times: list[list[float]] = [[] for _ in fns]
     outs: list[object] = [None] * len(fns)
     for _ in range(reps):
         for k, fn in enumerate(fns):
-            t0 = time.perf_counter()
+            t0 = clock()
             outs[k] = fn()
-            times[k].append(time.perf_counter() - t0)
+            times[k].append(clock() - t0)
     return [(float(np.median(t)), out) for t, out in zip(times, outs, strict=True)]
 
 
@@ -44,11 +46,4 @@ def table(title: str, header: list[str], rows: list[list]) -> None:
 def interleaved_median_cpu(fns: list, reps: int) -> list[tuple[float, object]]:
     """As :func:`interleaved_median_times`, in CPU seconds of the process (every thread:
     hgo integrates in a worker thread), robust against other processes on a shared machine."""
-    times: list[list[float]] = [[] for _ in fns]
-    outs: list[object] = [None] * len(fns)
-    for _ in range(reps):
-        for k, fn in enumerate(fns):
-            t0 = time.process_time()
-            outs[k] = fn()
-            times[k].append(time.process_time() - t0)
-    return [(float(np.median(t)), out) for t, out in zip(times, outs, strict=True)]
+    return interleaved_median_times(fns, reps, clock=time.process_time)
