@@ -36,10 +36,10 @@ from unittest import mock
 
 import numpy as np
 from dhlm_bench import _err, _experiment, _ivp
-from run import interleaved_median_times
 from scipy.integrate import solve_ivp
 from scipy.integrate._ivp import dop853_coefficients
 from scipy.integrate._ivp.rk import RK45
+from timing import interleaved_median_times
 
 from hgo.engine import simulate as engine
 from hgo.engine.codegen import load_kernel

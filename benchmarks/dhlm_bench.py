@@ -64,8 +64,8 @@ from __future__ import annotations
 import argparse
 
 import numpy as np
-from run import interleaved_median_times
 from scipy.integrate import solve_ivp
+from timing import interleaved_median_times
 
 from hgo.core.config import compose
 from hgo.papers.dimassi.reference import X0, Example

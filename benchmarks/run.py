@@ -5,6 +5,7 @@
     python benchmarks/run.py --only grid,recording,memory   # a subset (see --help)
     python benchmarks/run.py --only apa,dhlm,moreno         # the papers' rows against solve_ivp
     python benchmarks/run.py --only reproduce,startup       # whole-process rows
+    python benchmarks/run.py --only hand    # hgo over hand-written kernels (hand_bench.py)
 
 Times are medians of >= 3 runs after compilation (CPU-bound; wall clock), ratios are
 taken inside the same run. Prints the tables and ends with one line
@@ -19,7 +20,6 @@ import os
 import subprocess
 import sys
 import tempfile
-import textwrap
 import time
 from pathlib import Path
 
@@ -27,29 +27,36 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import baselines as bl  # noqa: E402
+from problems import (  # noqa: E402
+    A_DT_OUT,
+    A_NOISE,
+    A_NOISE_DT,
+    A_SWITCH,
+    A_T,
+    ATOL_B,
+    B_DT,
+    B_T,
+    FAST_B,
+    RTOL_B,
+    WP_RTOLS_HGO,
+    WP_RTOLS_IVP,
+    a_noise,
+    a_solver,
+    a_system,
+    b_errors,
+    b_solver,
+    b_system,
+    compile_times,
+    ensemble_inputs,
+    ensemble_members,
+    fast_label,
+)
+from timing import interleaved_median_times, median_time, table  # noqa: E402
 
-from hgo.controllers.open_loop import open_loop_controller  # noqa: E402
 from hgo.engine.simulate import Noise, SolverSettings, no_noise, simulate, simulate_ensemble  # noqa: E402,E501
 from hgo.engine.system import System  # noqa: E402
-from hgo.observers.switched_hgo import stiffness as switched_stiffness  # noqa: E402
-from hgo.observers.switched_hgo import switched_hgo  # noqa: E402
-from hgo.observers.triangular import triangular_hgo  # noqa: E402
-from hgo.plants.dc_motor import dc_motor_plant  # noqa: E402
-from hgo.plants.sp_linear import sp_linear_plant  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
-RTOL_B, ATOL_B = 1e-8, 1e-10  # problem B: solve_ivp, the hand kernel and hgo's dopri5
-# hgo's choice for problem B: DOP853 at a looser rtol, still more accurate than solve_ivp
-# at 1e-8 (the benchmark prints both errors and checks it)
-FAST_B = {"method": "dop853", "rtol": 1e-7, "atol": 1e-9}
-# work-precision of problem B: hgo DOP853 at these rtol (atol = rtol / 100, FAST_B among
-# them) and solve_ivp RK45 on (20) at these rtol (atol = rtol / 100; full run only)
-WP_RTOLS_HGO = (1e-6, 3e-7, 1e-7, 1e-8, 1e-9)
-WP_RTOLS_IVP = (1e-6, 1e-7, 1e-9)
-B_T, B_DT = 200.0, 0.01
-A_T, A_NOISE_DT, A_DT_OUT, A_NOISE = 20.0, 0.0008, 0.004, 0.0016
-A_SWITCH = 1.0
-P2_INDEX = 2 + 3  # params: plant [nu1, nu2], observer [n, law, p1, p2, ...]
 SWEEP_ROWS = ("grid", "recording", "memory", "joblib")  # sections of sweeps_bench.py
 # repetitions of the millisecond runs of hgo and the hand kernels (medians): their
 # distribution here has a long tail (8-13 ms for one 8 ms run), 5 samples are not enough
@@ -58,148 +65,15 @@ FAST_REPS = 15
 PAPER_ROWS = {"apa": "ratio", "dhlm": "ratio", "moreno": "ratio_dop853"}
 
 
-def median_time(fn, reps: int) -> tuple[float, object]:
-    (result,) = interleaved_median_times([fn], reps)
-    return result
-
-
-def interleaved_median_times(fns: list, reps: int) -> list[tuple[float, object]]:
-    """(median time, last result) of each function, the functions called in turn.
-
-    Interleaving puts every function into the same stretches of this machine's drifting
-    speed, so the ratios of the medians compare code, not moments."""
-    times: list[list[float]] = [[] for _ in fns]
-    outs: list[object] = [None] * len(fns)
-    for _ in range(reps):
-        for k, fn in enumerate(fns):
-            t0 = time.perf_counter()
-            outs[k] = fn()
-            times[k].append(time.perf_counter() - t0)
-    return [(float(np.median(t)), out) for t, out in zip(times, outs, strict=True)]
-
-
-# ---------------------------------------------------------------------- problem B
-def b_system(p2: float = 1.5, e0=(3.0, 3.0)) -> System:
-    plant = sp_linear_plant(nu1=3, nu2=0, x0=(0, 0))
-    obs = triangular_hgo("b", K=[2, 2], xhat0=list(e0), r0=1, law="sign_indefinite",
-                         p1=4 / 3, p2=p2, b=0.28, M=[[3, 0], [0, 0]])
-    return System(plant, [obs])
-
-
-def b_solver(t_end: float = B_T, dt_out: float = B_DT, method: str = "dopri5",
-             rtol: float = RTOL_B, atol: float = ATOL_B) -> SolverSettings:
-    # h_max only caps adaptive steps (outputs are interpolated): no cap below the horizon
-    return SolverSettings(t_end=t_end, dt_out=dt_out, method=method, h_max=t_end,
-                          rtol=rtol, atol=atol)
-
-
-def fast_label(method: str, rtol: float, atol: float) -> str:
-    return f"{method.upper()} rtol {rtol:g} atol {atol:g}"
-
-
-def b_errors(tr) -> np.ndarray:
-    """(e1, e2, r) on the grid from an hgo trajectory (x = 0, so e = x^ - x)."""
-    return np.c_[tr.xh[:, 0] - tr.z[:, 0], tr.xh[:, 1] - tr.z[:, 1], tr.z[:, 4]]
-
-
-def ensemble_members(n: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    rng = np.random.default_rng(seed)
-    return rng.uniform(0.5, 3.0, n), rng.uniform(-3.0, 3.0, (n, 2))
-
-
-def ensemble_inputs(system: System, p2: np.ndarray, e0: np.ndarray):
-    params = np.tile(system.params(), (len(p2), 1))
-    params[:, P2_INDEX] = p2
-    z0 = np.tile(system.z0(), (len(p2), 1))
-    z0[:, 2:4] = e0
-    return params, z0
-
-
-# ---------------------------------------------------------------------- problem A
-def a_system() -> System:
-    plant = dc_motor_plant()
-    obs = switched_hgo("hgo", alpha1=(71.0, 70.0), eps1=5e-4, alpha2=(2.0, 1.0), eps2=0.01,
-                       delta=1e12, T_d=A_SWITCH)  # |y - x^1| never leaves: switch at t = 1 s
-    # RK4 steps from the *active* gain's margin (rho = 1.4e5, then 100), as the hand kernel
-    obs.stiffness = switched_stiffness
-    return System(plant, [obs], open_loop_controller(1.0, 0.5, 1.0))
-
-
-def a_noise(seed: int = 1, t_end: float = A_T) -> Noise:
-    n = int(round(t_end / A_NOISE_DT)) + 1
-    samples = np.zeros((n, 2))
-    samples[:, 0] = np.random.default_rng(seed).uniform(-A_NOISE, A_NOISE, n)
-    return Noise(samples, A_NOISE_DT)
-
-
-def a_solver(t_end: float = A_T) -> SolverSettings:
-    return SolverSettings(t_end=t_end, dt_out=A_DT_OUT, method="rk4", h_max=1.0)
-
-
-# ---------------------------------------------------------------------- compile times
-COMPILE_SNIPPET = textwrap.dedent("""
-    import time, sys
-    t0 = time.perf_counter()
-    sys.path.insert(0, {bench!r})
-    import run as b
-    problem = {problem!r}
-    if problem == "B":
-        system, solver, noise = b.b_system(), b.b_solver(), b.no_noise(1)
-    elif problem == "B853":
-        system, solver, noise = b.b_system(), b.b_solver(**b.FAST_B), b.no_noise(1)
-    else:
-        system, solver, noise = b.a_system(), b.a_solver(), b.a_noise()
-    t1 = time.perf_counter()
-    b.simulate(system, solver, noise)
-    t2 = time.perf_counter()
-    b.simulate(system, solver, noise)
-    t3 = time.perf_counter()
-    print(f"{{t1 - t0}} {{t2 - t1}} {{t3 - t2}}")
-""")
-
-
-def _first_run(code: str, env: dict) -> float:
-    res = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
-                         text=True, cwd=ROOT, check=True)
-    _, first, steady = (float(v) for v in res.stdout.split()[-3:])
-    return first - steady
-
-
-def compile_times(problem: str) -> tuple[float, float, float]:
-    """Time from the first simulate() call to its return, minus one steady-state run, in a
-    fresh process: (empty caches, only the kernel new (numba's cache of the components'
-    helpers kept, as for a new combination of known components; the components themselves
-    are compiled into every new kernel), everything cached)."""
-    code = COMPILE_SNIPPET.format(bench=str(Path(__file__).resolve().parent), problem=problem)
-    with tempfile.TemporaryDirectory() as cache, tempfile.TemporaryDirectory() as kernels:
-        # NUMBA_CACHE_DIR too: the component functions are cached by numba next to their
-        # modules, and a truly new configuration compiles them as well
-        env = dict(os.environ, HGO_CACHE_DIR=cache, NUMBA_CACHE_DIR=cache)
-        empty, cached = _first_run(code, env), _first_run(code, env)
-        new_kernel = _first_run(code, dict(env, HGO_CACHE_DIR=kernels))
-    return empty, new_kernel, cached
-
-
 # ---------------------------------------------------------------------- main
-def fmt(x: float) -> str:
-    return f"{x:.3g}"
-
-
-def table(title: str, header: list[str], rows: list[list]) -> None:
-    print(f"\n## {title}\n")
-    print("| " + " | ".join(header) + " |")
-    print("|" + "|".join("---" for _ in header) + "|")
-    for r in rows:
-        print("| " + " | ".join(fmt(v) if isinstance(v, float) else str(v) for v in r) + " |")
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--quick", action="store_true", help="reduced run (< 60 s)")
     ap.add_argument("--only", help="comma-separated subset: core (the issue-5 tables), "
                     "sweeps (all of sweeps_bench.py) or its rows grid, recording, memory, "
                     "joblib; the papers' rows apa, dhlm, moreno; reproduce, startup (whole "
-                    "processes); default: core, sweeps, apa, dhlm, moreno")
+                    "processes); hand (hgo over hand-written kernels, issue 24); default: core, "
+                    "sweeps, apa, dhlm, moreno")
     args = ap.parse_args()
     quick = args.quick
     only = set(args.only.split(",")) if args.only else {"core", "sweeps", *PAPER_ROWS}
@@ -215,8 +89,16 @@ def main() -> None:
     for name in sorted(only & {"reproduce", "startup"}):
         subprocess.run([sys.executable, str(Path(__file__).with_name(f"{name}_bench.py"))],
                        check=True)
-    if "core" not in only:
-        return
+    if "core" in only:
+        core(quick)
+    if "hand" in only:  # last: its final line is hgo_over_hand
+        import hand_bench
+
+        hand_bench.bench(quick)
+
+
+def core(quick: bool) -> None:
+    """The issue-5 tables (problems A and B against solve_ivp and the hand kernels)."""
     reps = 3 if quick else 5
     t_start = time.perf_counter()
     print(f"# hgo benchmark ({'quick' if quick else 'full'}), {os.cpu_count()} cores, "

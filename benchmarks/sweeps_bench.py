@@ -109,7 +109,7 @@ def grid_rows(quick: bool) -> list[list]:
 
 
 def recording_rows(quick: bool) -> list[list]:
-    import run as b
+    import problems as b
 
     from hgo.engine.simulate import SolverSettings, no_noise, simulate
     from hgo.outputs.decimate import envelope
@@ -282,7 +282,7 @@ def _job_seconds(cmd: list[str], sweep: Path) -> float:
 
 def bench(quick: bool, only: set[str] | None = None) -> dict:
     """Print the tables; returns the headline numbers."""
-    from run import table
+    from timing import table
 
     out: dict = {}
     if only is None or "grid" in only:

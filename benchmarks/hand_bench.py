@@ -1,0 +1,202 @@
+"""hgo against hand-written numba kernels of the same method (issue 24, item 5).
+
+    python benchmarks/run.py --only hand          # or: python benchmarks/hand_bench.py
+
+For each problem, hgo's whole in-process call as a user's script makes it (the system or
+experiment built once; then ``simulate(system, solver, noise)`` or
+``run_experiment(experiment)``: its Python set-up, the hand-off to the worker thread, the
+compiled integration, the output arrays) against a hand-written numba kernel of the same
+method, tolerances and steps, checked to give the same trajectory (max |difference| over
+the grid, relative to max(1, max |state|) per state, printed). Times: CPU seconds of the
+process (hgo's worker thread included), medians of interleaved calls (``REPS``).
+
+* A: switched DC motor (``problems.a_system``), RK4, against ``baselines.a_kernel``;
+* B: Sanfelice & Praly (20) (``problems.b_system``), DOPRI5 rtol 1e-8, against
+  ``baselines.b_kernel``;
+* APA: ``experiment=apa_fig2`` (T = 50, noise held 0.01, three observers integrated apart),
+  DOP853 rtol 1e-8, against ``hand_papers.apa_kernel`` (one per observer). The df2max
+  observer's x^2 crosses its saturation bounds ~2.3 times per noise sample; its steps
+  there depend on round-off, so its x^2 differs by up to ~1e-5 (two compilations of hgo's
+  own kernel differ by as much, ``apa_bench.py``); every other state to ~1e-8;
+* DHLM: ``experiment=dhlm_example``, DOP853 rtol 1e-10, against ``hand_papers.dhlm_kernel``;
+* Moreno: ``experiment=moreno_pe`` (x2 = 2 sin t, a = 0.5, l2 = 120), DOP853 rtol 1e-10,
+  against ``hand_papers.moreno_kernel``.
+
+Then the build time per ensemble member of a 10,000-member grid (``sp_ensemble`` with a
+100 x 100 grid over p2 and x^1(0): ``hgo.ensemble_runner.prepare_ensemble``, i.e. planning,
+building every member's system, stacking the parameters and sampling the noise; no
+integration), and the compile time of a new kernel (problem B, DOP853 rtol 1e-7, in fresh
+processes: empty caches, and a new kernel with numba's cache of the component helpers
+kept). The last line: ``hgo_over_hand: A=<x> B=<x> APA=<x> DHLM=<x> Moreno=<x>``.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import baselines as bl  # noqa: E402
+import problems as pb  # noqa: E402
+from hand_papers import (  # noqa: E402
+    APA_OBSERVERS,
+    DHLM_Z0,
+    MORENO_Z0,
+    apa_kernel,
+    dhlm_kernel,
+    moreno_kernel,
+)
+from timing import interleaved_median_cpu  # noqa: E402
+
+REPS = 21
+APA = ["experiment=apa_fig2", "postprocess=none", "figures={}"]
+DHLM = ["experiment=dhlm_example", "postprocess=none"]
+MORENO = ["experiment=moreno_pe", "postprocess=none", "controller=moreno_sin", "plant.a=0.5",
+          "observer.circle.L=[200.0,120.0]"]
+GRID_N = 100  # 100 x 100 members
+NO_NOISE = np.zeros(1)
+
+
+def _rel_diff(a: np.ndarray, b: np.ndarray) -> float:
+    """max |a - b| over the grid, per state relative to max(1, max |b|)."""
+    scale = np.maximum(1.0, np.abs(b).max(axis=0))
+    return float((np.abs(a - b) / scale).max())
+
+
+def case_a() -> tuple:
+    """(hgo call, hand call, trajectory difference) of problem A."""
+    system, solver, noise = pb.a_system(), pb.a_solver(), pb.a_noise()
+    s0 = np.concatenate([system.plant.x0, system.observers[0].z0])
+    stab = solver.stability_safety * 2.785
+    every = int(round(pb.A_DT_OUT / pb.A_NOISE_DT))
+    rec = np.zeros((int(round(pb.A_T / pb.A_DT_OUT)) + 1, 5))
+    v = noise.samples[:, 0].copy()
+
+    def hand():
+        return bl.a_kernel(s0, v, pb.A_NOISE_DT, pb.A_T, pb.A_SWITCH, stab, every, rec)
+
+    def hgo():
+        return pb.simulate(system, solver, noise)
+
+    hand()
+    tr = hgo()
+    return hgo, hand, _rel_diff(rec, tr.z[:, :5])
+
+
+def case_b() -> tuple:
+    system, solver = pb.b_system(), pb.b_solver()
+    rec = np.zeros((int(round(pb.B_T / pb.B_DT)) + 1, 3))
+    acc = np.zeros(3)
+
+    def hand():
+        return bl.b_kernel(3.0, 3.0, 1.5, pb.B_T, pb.B_DT, pb.RTOL_B, pb.ATOL_B, 1e-3,
+                           pb.B_T / 4, rec, acc)
+
+    def hgo():
+        return pb.simulate(system, solver, pb.no_noise(1))
+
+    hand()
+    return hgo, hand, _rel_diff(rec, pb.b_errors(hgo()))
+
+
+def case_paper(overrides: list[str], kernel, z0: np.ndarray) -> tuple:
+    from hgo.core.config import compose
+    from hgo.running.runner import build, run_experiment
+
+    exp = build(compose(overrides))
+    s = exp.solver
+    rec = np.zeros((int(round(s.t_end / s.dt_out)) + 1, z0.size))
+    p = np.zeros(1)
+
+    def hand():
+        z = z0.copy()
+        return kernel(z, p, NO_NOISE, np.inf, s.t_end, s.dt_out, s.h_max, s.rtol, s.atol,
+                      rec)
+
+    def hgo():
+        return run_experiment(exp)
+
+    hand()
+    return hgo, hand, _rel_diff(rec, hgo().z[:, :z0.size])
+
+
+def case_apa() -> tuple:
+    """apa_fig2: hgo integrates the three observers apart (solver.split_observers), each
+    with its own copy of the plant; the hand kernels the same, one after the other. The
+    difference is the largest over the observers' states and the plant's copies."""
+    from hgo.core.config import compose
+    from hgo.running.runner import build, run_experiment
+
+    exp = build(compose(APA))
+    s = exp.solver
+    noise = exp.noise.sample(s.t_end, 1, exp.seed)
+    v = noise.samples[:, 0].copy()
+    runs = [(*apa_kernel(name), np.zeros((int(round(s.t_end / s.dt_out)) + 1, 5)))
+            for name in APA_OBSERVERS]
+    starts = [start(v[0]) for _, start, _ in runs]
+    p = np.zeros(1)
+
+    def hand():
+        for (kernel, _, rec), z0 in zip(runs, starts, strict=True):
+            kernel(z0.copy(), p, v, noise.dt, s.t_end, s.dt_out, s.h_max, s.rtol, s.atol, rec)
+
+    def hgo():
+        return run_experiment(exp)
+
+    hand()
+    z = hgo().z
+    diff = max(_rel_diff(rec, z[:, [0, 1, 2 + 3 * k, 3 + 3 * k, 4 + 3 * k]])
+               for k, (_, _, rec) in enumerate(runs))
+    return hgo, hand, diff
+
+
+def member_build_ms(n: int = GRID_N) -> tuple[float, int]:
+    """CPU ms per member of preparing the ``n`` x ``n`` grid ensemble (median of 3)."""
+    from sweeps_bench import sp_grid_override
+
+    from hgo.core.config import compose
+    from hgo.running.ensemble_runner import prepare_ensemble
+
+    with tempfile.TemporaryDirectory() as tmp:
+        cfg = compose(["experiment=sp_ensemble", "ensemble.size=0", sp_grid_override(n)],
+                      Path(tmp))
+        prepare_ensemble(cfg)
+        (t, plan), = interleaved_median_cpu([lambda: prepare_ensemble(cfg)], 3)
+    size = len(plan.systems)
+    return t / size * 1e3, size
+
+
+def bench(quick: bool = False) -> dict:
+    cases = {"A": case_a, "B": case_b, "APA": case_apa,
+             "DHLM": lambda: case_paper(DHLM, dhlm_kernel, DHLM_Z0),
+             "Moreno": lambda: case_paper(MORENO, moreno_kernel, MORENO_Z0)}
+    load = os.getloadavg()[0]
+    print(f"\n## hgo over hand-written kernels (CPU s, medians of {REPS} interleaved calls; "
+          f"load average {load:.2f})\n")
+    print("| problem | hgo (s) | hand (s) | hgo / hand | max trajectory difference |")
+    print("|---|---|---|---|---|")
+    ratios = {}
+    for name, make in cases.items():
+        hgo, hand, diff = make()
+        (t_hgo, _), (t_hand, _) = interleaved_median_cpu([hgo, hand], 7 if quick else REPS)
+        ratios[name] = t_hgo / t_hand
+        print(f"| {name} | {t_hgo:.5f} | {t_hand:.5f} | {ratios[name]:.2f} | {diff:.1e} |")
+    ms, size = member_build_ms(30 if quick else GRID_N)
+    print(f"\nmember build: {ms:.3f} ms CPU per member ({size} members, prepare_ensemble; "
+          f"load {os.getloadavg()[0]:.2f})")
+    if not quick:
+        empty, new_kernel, cached = pb.compile_times("B853")
+        print(f"compile, B DOP853: empty caches {empty:.2f} s, new kernel {new_kernel:.2f} s, "
+              f"cached {cached:.2f} s (load {os.getloadavg()[0]:.2f})")
+    print("hgo_over_hand: " + " ".join(f"{k}={v:.2f}" for k, v in ratios.items()))
+    return ratios
+
+
+if __name__ == "__main__":
+    t0 = time.perf_counter()
+    bench("--quick" in sys.argv)

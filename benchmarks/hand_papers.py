@@ -1,0 +1,140 @@
+"""Hand-written numba kernels of the Dimassi et al. and Moreno runs (issue 24, item 5).
+
+Each right-hand side is written out for its one problem (constants compiled in, states as
+scalars) and integrated by the hand DOP853 of :mod:`hand_dop853`, hgo's method at the
+presets' settings:
+
+* DHLM: ``experiment=dhlm_example`` (Dimassi et al. Sec. IV): robot arm (24)-(25) under
+  u = 5 (sin 2t + cos 3t), HGO (27) with the saturation S, adaptive observer (5), (7) with
+  psi = [u, -sin y]; state [x1, x2, z_h1, z_h2, x^1, x^2, theta^1, theta^2] (the order of
+  hgo's z and of ``hgo.papers.dimassi.reference``); DOP853 rtol 1e-10, atol 1e-12,
+  h_max 0.01, 20 s, output every 1 ms.
+* Moreno: ``experiment=moreno_pe`` with ``controller=moreno_sin`` (x2 = 2 sin t, u = r' + a r),
+  a = 0.5, l = (200, 120), k = N = 2, x(0) = 0, e(0) = (70, -50): plant (Section 5) and
+  observer (3); state [x1, x2, x^1, x^2]; DOP853 rtol 1e-10, atol 1e-12, h_max 0.01, 40 s,
+  output every 1 ms.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+from hand_dop853 import dop853_kernel
+
+# Dimassi et al. Sec. IV values (conf/plant/robot_arm.yaml, conf/observer/dhlm_cascade.yaml)
+DHLM_I, DHLM_MGL = 0.5, 9.81
+DHLM_EPS, DHLM_G1, DHLM_G2, DHLM_S = 0.006, 6.0, 8.0, 150.0
+DHLM_L11, DHLM_L21, DHLM_L22 = 5.0, 1.0, 10.0  # L = [[5, 0], [1, 10]]
+DHLM_DELTA, DHLM_SIGMA = 100.0, 0.01  # M = [0, 1]
+DHLM_Z0 = np.array([1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+
+
+@numba.njit(inline="always")
+def dhlm_rhs(t, w, p, m, dw):
+    x1, x2, zh1, zh2, xh1, xh2, th1, th2 = w[0], w[1], w[2], w[3], w[4], w[5], w[6], w[7]
+    u = 5.0 * (math.sin(2.0 * t) + math.cos(3.0 * t))
+    e = x1 - zh1  # y = x1 (no noise)
+    i1 = min(max(zh1, -DHLM_S), DHLM_S) - xh1  # z_h^s - x^
+    i2 = min(max(zh2, -DHLM_S), DHLM_S) - xh2
+    psi2 = -math.sin(x1)  # psi = [u, -sin y]
+    dw[0] = x2
+    dw[1] = (u - 0.5 * DHLM_MGL * math.sin(x1)) / DHLM_I
+    dw[2] = zh2 + DHLM_G1 / DHLM_EPS * e
+    dw[3] = DHLM_G2 / DHLM_EPS ** 2 * e
+    dw[4] = xh2 + DHLM_L11 * i1
+    dw[5] = u * th1 + psi2 * th2 + DHLM_L21 * i1 + DHLM_L22 * i2
+    dw[6] = DHLM_DELTA * u * i2 - DHLM_SIGMA * th1
+    dw[7] = DHLM_DELTA * psi2 * i2 - DHLM_SIGMA * th2
+
+
+# Moreno Section 5 with the `sin` profile (conf/controller/moreno_sin.yaml)
+MORENO_A, MORENO_AMP = 0.5, 2.0
+MORENO_L1, MORENO_L2, MORENO_N = 200.0, 120.0, 2.0
+MORENO_Z0 = np.array([0.0, 0.0, -70.0, 50.0])  # x(0) = 0, x^(0) = x(0) - e(0)
+
+
+@numba.njit(inline="always")
+def moreno_rhs(t, w, p, m, dw):
+    x1, x2, xh1, xh2 = w[0], w[1], w[2], w[3]
+    u = MORENO_AMP * math.cos(t) + MORENO_A * MORENO_AMP * math.sin(t)  # r' + a r
+    innov = x1 - xh1
+    s = xh2 + MORENO_N * innov  # H x^ + N (y - C x^)
+    psi = s * (s * s - 2.0)  # psi(s) = s^3 - 2 s
+    dw[0] = -x1 + x2 * (x2 * x2 - 1.0)
+    dw[1] = -MORENO_A * x2 + u
+    dw[2] = -xh1 + xh2 + MORENO_L1 * innov + psi
+    dw[3] = -MORENO_A * xh2 + MORENO_L2 * innov + u
+
+
+dhlm_kernel = dop853_kernel(dhlm_rhs, 8)
+moreno_kernel = dop853_kernel(moreno_rhs, 4)
+
+
+# Andrieu, Praly & Astolfi, apa_fig2 (conf/experiment/apa_fig2.yaml): the Contois plant
+# (11), true hbar = 1, and each of the three observers (7)-(8) (model hbar_o = 0.8) with its
+# own copy of the plant (the preset's solver.split_observers): state [eta1, eta2, x^1, x^2,
+# L]; y = eta1 + noise held 0.01; u from the schedule of Section 3.1. The model's bounds
+# (f2 of (12), Omega1, Omega2: an exact maximisation) are hgo.plants.contois's functions,
+# the rest is written out for n = 2 with every setting a compile-time constant.
+APA_OBSERVERS = {  # rate bound kind (0 df2max, 1 Omega1, 2 Omega2), p = d_inf, dynamic gain
+    "df2max": (0, 0.0, False), "omega1": (1, 0.0, True), "omega2": (2, 0.9, True)}
+APA_B, APA_PHI, APA_ELL, APA_HBAR_O = 0.5, (3.0, 0.01, 3.0), 3.0, 0.8
+APA_U_RANGE, APA_ETA0, APA_ETA_HAT0 = (0.01, 0.7), (0.3, 0.5), (0.5, 0.3)
+
+
+@numba.njit(inline="always")
+def apa_input(t):
+    """u of Section 3.1 (reading C1): 0.5, 0.02 from t = 10, 0.6 from 20, 0.1 from 35."""
+    if t < 10.0:
+        return 0.5
+    if t < 20.0:
+        return 0.02
+    return 0.6 if t < 35.0 else 0.1
+
+
+@numba.njit(inline="always")
+def _spow(w, r):
+    return math.copysign(math.pow(abs(w), r), w)
+
+
+def apa_kernel(name: str):
+    """(compiled run, z(0) before L(0), the L(0) function) of the observer ``name``."""
+    from hgo.observers.homogeneous_dynamic import model_terms
+    from hgo.plants.contois import clip, df2max, invariance_eps, reaction_rate, to_x
+
+    kind, q, dynamic = APA_OBSERVERS[name]
+    phi1, phi2, phi3 = APA_PHI
+    eps1, eps2 = invariance_eps(APA_HBAR_O, *APA_U_RANGE)
+    dfmax = df2max(APA_HBAR_O, *APA_U_RANGE)["df2max"]
+    hbar, ell = APA_HBAR_O, APA_ELL
+    pow1 = 1.0 / (1.0 - q)  # k1(s) = s + s^(1/(1-q)); k2(w) = w + w^(1+q)
+
+    @numba.njit(inline="always")
+    def rhs(t, w, p, m, dw):
+        u = apa_input(t)
+        eta1, eta2, x1, x2, L = w[0], w[1], w[2], w[3], w[4]
+        r = reaction_rate(eta1, eta2, 1.0)
+        dw[0] = r - u * eta1
+        dw[1] = -r + u * (1.0 - eta2)
+        y = eta1 + m
+        ys = clip(y, eps1, 1.0 - eps2)
+        Lb = math.sqrt(L)  # L^b, b = 1/2
+        s = (x1 - ys) / Lb
+        k1 = s + _spow(s, pow1)
+        k2 = ell * k1 + _spow(ell * k1, 1.0 + q)
+        f2s, omega = model_terms(kind, u, ys, x2, q, hbar, eps2, dfmax)
+        dw[2] = x2 - u * y - L * Lb * k1
+        dw[3] = f2s - L * L * Lb * k2
+        dw[4] = L * (phi1 * (phi2 - L) + phi3 * omega) if dynamic else 0.0
+
+    def start(m0: float) -> np.ndarray:
+        """z(0) with L(0) = phi2 + (phi3/phi1) Omega(0), y(0) with the first noise sample
+        (reading C6, hgo's update at t = 0)."""
+        x_hat = to_x(APA_ETA_HAT0, hbar)
+        ys = clip(APA_ETA0[0] + m0, eps1, 1.0 - eps2)
+        omega = model_terms(kind, apa_input(0.0), ys, x_hat[1], q, hbar, eps2, dfmax)[1]
+        return np.array([*APA_ETA0, *x_hat, phi2 + phi3 / phi1 * omega])
+
+    return dop853_kernel(rhs, 5), start

@@ -1,0 +1,42 @@
+"""Plants in observability normal form (issue 24, item 4):
+
+    x1' = x2,  ...,  x(n-1)' = xn,  xn' = phi0(x, u, p),   y = x1 (+ noise),
+
+``phi0`` a function of the state, the inputs and the plant's named parameters (``p.mu``),
+the same function the observers of :mod:`hgo.observers.normal_form` take as their model.
+Instances: :mod:`hgo.plants.van_der_pol`, :mod:`hgo.plants.jerk`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+from hgo.core.components import Params, Plant
+
+
+def f(t, x, u, p, dx):
+    """The chain of integrators closed by phi0."""
+    for i in range(p.n - 1):
+        dx[i] = x[i + 1]
+    dx[p.n - 1] = p.phi0(x, u, p)
+
+
+def h(t, x, p, y):
+    """y = x1 (before noise)."""
+    y[0] = x[0]
+
+
+def normal_form_plant(name: str, phi0: Callable, x0: Sequence[float],
+                      inputs: Sequence[str] = (), spectral_radius: float = 0.0,
+                      **values: float) -> Plant:
+    """The plant of order n = len(x0) closed by ``phi0``, with named run-time ``values``."""
+    x0 = np.asarray(x0, float).reshape(-1)
+    n = x0.size
+    if n < 2 or not np.all(np.isfinite(x0)):
+        raise ValueError(f"plant.x0 must have n >= 2 finite entries, got {x0.tolist()}")
+    return Plant(name=name, state_names=[f"x{i + 1}" for i in range(n)], output_names=["y"],
+                 input_names=list(inputs), x0=x0,
+                 p=Params({"n": n, "phi0": phi0}, **values), f=f, h=h, output_state=0,
+                 spectral_radius=spectral_radius)
