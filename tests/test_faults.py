@@ -115,6 +115,20 @@ def _run_cli(args: list[str], tmp_path: Path) -> subprocess.Popen:
                             stderr=subprocess.PIPE, text=True)
 
 
+def _start_long_run(run_dir: Path, tmp_path: Path) -> subprocess.Popen:
+    """A 1e8-step integration into ``run_dir``, returned 1 s after it logs "integrating"."""
+    import time
+
+    proc = _run_cli(["experiment=sp_oscillation", "postprocess=none", "solver.t_end=100000",
+                     "solver.dt_out=1", "solver.h_max=0.001", "metrics.window=5",
+                     f"hydra.run.dir={run_dir}"], tmp_path)
+    for line in proc.stdout:
+        if "integrating" in line:
+            break
+    time.sleep(1.0)
+    return proc
+
+
 def test_ctrl_c_stops_a_long_compiled_integration_within_a_second(tmp_path):
     """SIGINT 1 s into a 1e8-step integration: exit 130 within ~1 s, one error line, a
     complete recording up to the stop marked interrupted in /run/status and metrics.csv."""
@@ -128,13 +142,7 @@ def test_ctrl_c_stops_a_long_compiled_integration_within_a_second(tmp_path):
     warm = _run_cli([*SHORT, f"hydra.run.dir={tmp_path}/warm"], tmp_path)  # compile
     assert warm.wait(timeout=300) == 0, warm.stderr.read()
     run_dir = tmp_path / "long"
-    proc = _run_cli(["experiment=sp_oscillation", "postprocess=none", "solver.t_end=100000",
-                     "solver.dt_out=1", "solver.h_max=0.001", "metrics.window=5",
-                     f"hydra.run.dir={run_dir}"], tmp_path)
-    for line in proc.stdout:
-        if "integrating" in line:
-            break
-    time.sleep(1.0)
+    proc = _start_long_run(run_dir, tmp_path)
     t0 = time.perf_counter()
     proc.send_signal(signal.SIGINT)
     _, err = proc.communicate(timeout=60)
@@ -438,18 +446,11 @@ def test_sigterm_ends_a_run_like_ctrl_c(tmp_path):
     130, one error line, metrics.csv and run.json say interrupted."""
     import json
     import signal
-    import time
 
     import pandas as pd
 
     run_dir = tmp_path / "long"
-    proc = _run_cli(["experiment=sp_oscillation", "postprocess=none", "solver.t_end=100000",
-                     "solver.dt_out=1", "solver.h_max=0.001", "metrics.window=5",
-                     f"hydra.run.dir={run_dir}"], tmp_path)
-    for line in proc.stdout:
-        if "integrating" in line:
-            break
-    time.sleep(1.0)
+    proc = _start_long_run(run_dir, tmp_path)
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=120)
     assert proc.returncode == 130, err
