@@ -468,14 +468,14 @@ def test_ctrl_c_while_compiling_says_so_and_stops_when_compiled(capfd):
 
     import numpy as np
 
-    from hgo.engine.simulate import _interruptible
+    from hgo.engine.interrupt import interruptible
 
     ctl = np.zeros(1)
     previous = signal.signal(signal.SIGALRM, lambda *a: signal.raise_signal(signal.SIGINT))
     signal.setitimer(signal.ITIMER_REAL, 0.2)
     t0 = time.monotonic()
     try:
-        value = _interruptible(lambda: time.sleep(1.5) or "compiled", (), ctl)
+        value = interruptible(lambda: time.sleep(1.5) or "compiled", (), ctl)
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, previous)

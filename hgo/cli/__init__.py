@@ -41,16 +41,13 @@ def run_app(args: list[str], prog: str = "hgo run") -> int:
         print(f"error: {err}", file=sys.stderr)
         return 2
     sys.argv = [prog, *args]
-    signal.signal(signal.SIGTERM, _terminated)
+    # SIGTERM (``kill``, a scheduler's time limit) ends a run as Ctrl-C does: the kernel
+    # stops within a step, outputs up to then are written and marked interrupted, exit 130
+    # (by default it ended the process at once, marking nothing). Python's own Ctrl-C
+    # handler: the engine watches the signals that have it (hgo.engine.interrupt).
+    signal.signal(signal.SIGTERM, signal.default_int_handler)
     cli_main()
     return 0
-
-
-def _terminated(signum, frame) -> None:
-    """SIGTERM (``kill``, a scheduler's time limit) ends a run as Ctrl-C does: the kernel
-    stops within a step, outputs up to then are written and marked interrupted, exit 130
-    (it ended the process at once, marking nothing)."""
-    raise KeyboardInterrupt("interrupted by SIGTERM")
 
 
 def _reproduce(args: list[str]) -> int:

@@ -451,20 +451,26 @@ def entry_lock(path: Path) -> Iterator[None]:
             fcntl.flock(handle, fcntl.LOCK_UN)
 
 
-def compiled_first(fn, path: Path):
+def compiled_first(fn, path: Path | str):
     """``fn`` (a kernel function) that, on its first call in this process, compiles or
     loads it from numba's cache under :func:`entry_lock` before running it: the lock is
     held while compiling, never while integrating."""
-    if not hasattr(fn, "compile"):  # the pure-Python kernel
+    if not hasattr(fn, "compile") or fn in _COMPILED:  # pure Python, or ready
         return fn
 
     def call(*args):
         if not fn.signatures:
-            with entry_lock(path):
+            with entry_lock(Path(path)):
                 fn.compile(tuple(fn.typeof_pyval(a) for a in args))
+        _COMPILED.add(fn)
         return fn(*args)
 
     return call
+
+
+# kernel functions compiled or loaded in this process (their later calls go straight in:
+# reading ``signatures`` cost ~30 us a call)
+_COMPILED: set = set()
 
 
 def forget_kernel(module: ModuleType) -> None:
@@ -472,6 +478,7 @@ def forget_kernel(module: ModuleType) -> None:
     for key in [k for k, m in _LOADED.items() if m is module]:
         del _LOADED[key]
     sys.modules.pop(module.__name__, None)
+    _COMPILED.difference_update([f for f in _COMPILED if f.py_func.__module__ == module.__name__])
     purge_numba_cache(Path(module.__file__))
 
 
@@ -533,7 +540,14 @@ def _function_constant(fn: object) -> object:
 
 def _layout_key(system: System, method: str, compiled: bool) -> tuple:
     """What the generated text depends on: the component functions (by identity) and the
-    layout, not the parameter values."""
+    layout, not the parameter values (computed once per system)."""
+    key = system.kernel_keys.get((method, compiled))
+    if key is None:
+        key = system.kernel_keys[method, compiled] = _new_layout_key(system, method, compiled)
+    return key
+
+
+def _new_layout_key(system: System, method: str, compiled: bool) -> tuple:
     functions, _ = _functions(system)
     plant = system.plant
     layout = (plant.nx, len(plant.output_names), len(plant.input_names),

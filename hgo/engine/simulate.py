@@ -29,11 +29,8 @@ from __future__ import annotations
 
 import math
 import pickle
-import sys
-import threading
 import warnings
 from dataclasses import dataclass, replace
-from pathlib import Path
 
 import numpy as np
 
@@ -46,6 +43,7 @@ from hgo.engine.codegen import (
     reads_estimate,
     remove_cache_entry,
 )
+from hgo.engine.interrupt import interruptible
 from hgo.engine.system import System
 
 RK4_STABILITY = 2.785  # |h*lambda| limit of classical RK4 on the negative real axis
@@ -57,7 +55,6 @@ STATUS = {0: "ok", 1: "non-finite state", 2: "state left the bound", 3: "step si
              "parameter)",
           5: "step limit solver.max_steps reached", 6: "interrupted"}
 INTERRUPTED = 6
-WAIT_S = 0.05  # the main thread wakes this often while a compiled integration runs
 
 
 @dataclass(frozen=True)
@@ -231,41 +228,6 @@ def _kernel(system: System, method: str):
         return load_kernel(system, compiled=False, method=method)
 
 
-STOP_NOTICE_S = 0.5  # a kernel that has not stopped this long after Ctrl-C is compiling
-
-
-def _interruptible(fn, args: tuple, ctl: np.ndarray):
-    """``fn(*args)`` in a worker thread; Ctrl-C in the main thread sets ``ctl[0]``, which the
-    kernel checks after every step: it returns (status 6) within one step, and its
-    outputs up to then are kept. A second Ctrl-C while it winds up interrupts at once."""
-    out: dict = {}
-    done = threading.Event()  # (not Thread.join: an interrupted join marks the thread
-    #                            stopped while it still runs, Python <= 3.12)
-
-    def work():
-        try:
-            out["value"] = fn(*args)
-        except BaseException as err:  # noqa: BLE001 - re-raised in the calling thread
-            out["error"] = err
-        finally:
-            done.set()
-
-    threading.Thread(target=work, name="hgo-integrate", daemon=True).start()
-    try:
-        while not done.wait(WAIT_S):
-            pass
-    except KeyboardInterrupt:
-        ctl[0] = 1
-        if not done.wait(STOP_NOTICE_S):  # the kernel checks ctl each step: compiling
-            sys.stderr.write("interrupted: stopping once numba has compiled the kernel "
-                             "(Ctrl-C again to stop at once)\n")
-            sys.stderr.flush()
-            done.wait()
-    if "error" in out:
-        raise out["error"]
-    return out["value"]
-
-
 def _call(system: System, method: str, fname: str, *args):
     module = _kernel(system, method)
     try:
@@ -277,7 +239,7 @@ def _call(system: System, method: str, fname: str, *args):
         warnings.warn(f"hgo: numba could not compile this system ({first}); running on the "
                       "pure-Python path (slow).", RuntimeWarning, stacklevel=3)
         module = load_kernel(system, compiled=False, method=method)
-        return _interruptible(getattr(module, fname), args, args[-1])
+        return interruptible(getattr(module, fname), args, args[-1])
 
 
 def _call_repairing_cache(system: System, method: str, module, fname: str, args: tuple):
@@ -286,7 +248,7 @@ def _call_repairing_cache(system: System, method: str, module, fname: str, args:
     warned = False
     for _ in range(MAX_CACHE_REPAIRS):
         try:
-            return _interruptible(_first_compiled(module, fname), args, args[-1])
+            return interruptible(_first_compiled(module, fname), args, args[-1])
         except CACHE_ERRORS as err:
             damaged = damaged_cache_file(err)
             if damaged is None:
@@ -299,13 +261,13 @@ def _call_repairing_cache(system: System, method: str, module, fname: str, args:
             remove_cache_entry(damaged)
             forget_kernel(module)
             module = _kernel(system, method)
-    return _interruptible(_first_compiled(module, fname), args, args[-1])
+    return interruptible(_first_compiled(module, fname), args, args[-1])
 
 
 def _first_compiled(module, fname: str):
     """The kernel function, compiled under its cache entry's lock on its first call
     (:func:`hgo.engine.codegen.compiled_first`): no two processes compile it at once."""
-    return compiled_first(getattr(module, fname), Path(module.__file__))
+    return compiled_first(getattr(module, fname), module.__file__)
 
 
 def _reason(message: str) -> str:

@@ -41,6 +41,10 @@ class System:
     d_slices: list[tuple[int, int]] = field(init=False)
     p_slices: list[tuple[int, int]] = field(init=False)
     xh_slices: list[tuple[int, int]] = field(init=False)
+    # the kernel cache's keys of this system by (method, compiled) (hgo.engine.codegen):
+    # a System is not changed once built (its slices above are computed once too), so a
+    # sweep's runs do not recompute its layout (~90 us a call)
+    kernel_keys: dict = field(init=False, repr=False, compare=False, default_factory=dict)
 
     def __post_init__(self) -> None:
         if not self.observers:
