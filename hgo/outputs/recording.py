@@ -122,10 +122,14 @@ def _time_column(t: np.ndarray) -> np.ndarray:
         raise ValueError(f"t must be 1-D, got shape {t.shape}")
     if not np.all(np.isfinite(t)):
         raise ValueError("t contains non-finite times")
-    t_ns = np.round(t * 1e9).astype(np.int64)
-    if np.any(np.diff(t_ns) <= 0):
+    # in place, and compared without np.diff: one int64 copy of t stays (80 MB for 1e7
+    # samples), against four temporaries of that size before
+    t_ns = t * 1e9
+    np.rint(t_ns, out=t_ns)
+    t_ns = t_ns.astype(np.int64)
+    if np.any(t_ns[1:] <= t_ns[:-1]):
         raise ValueError("t must be strictly increasing at 1 ns resolution")
-    return t_ns.astype("timedelta64[ns]")
+    return t_ns.view("timedelta64[ns]")
 
 
 def _checked_values(s: Series, n: int) -> np.ndarray:
@@ -199,23 +203,44 @@ def _scalar_column(block: np.ndarray, offsets: np.ndarray) -> rr.ComponentColumn
                               offsets=offsets[: rows + 1])
 
 
+FLUSH_BYTES = 16 << 20
+"""Scalar bytes sent between two blocking flushes of the stream.
+
+Rerun 0.41's file sink queues every chunk sent until its writer thread has compressed and
+written it, and sending is faster than that thread: without a flush the whole recording
+was held in memory once more (S&P Fig. 1 with 1e7 samples x 14 columns: the writing
+process grew by 1.9 GB, to 3.8 GB). Measured with 1e6 samples x 14 columns (growth of the
+writing process over its parent, best of 3 writes, load 1.3-1.6): no flush 170 MB 0.73 s;
+flushing every 64 MB 105 MB, 32 MB 93 MB, 16 MB 49 MB 0.76 s, 8 MB 34 MB 0.75 s.
+"""
+
+
 def _send_series(
     rec: rr.RecordingStream,
     s: Series,
     values: np.ndarray,
     blocks: Sequence[tuple[int, int, rr.TimeColumn]],
-) -> None:
+    unflushed: int = 0,
+) -> int:
+    """Send ``s`` block by block; returns the bytes sent since the last flush (the
+    stream is flushed whenever they reach :data:`FLUSH_BYTES`)."""
     import rerun as rr
 
     colors = [PALETTE[k % len(PALETTE)] for k in range(len(s.names))]
     rec.log(s.entity, rr.SeriesLines(names=list(s.names), colors=colors), static=True)
     offsets = np.arange(CHUNK_ROWS + 1, dtype=np.int32) * np.int32(values.shape[1])
     for a, b, time_column in blocks:
+        block = np.asarray(values[a:b], dtype=np.float64)
         rec.send_columns(
             s.entity,
             indexes=[time_column],
-            columns=[_scalar_column(values[a:b], offsets)],
+            columns=[_scalar_column(block, offsets)],
         )
+        unflushed += block.nbytes
+        if unflushed >= FLUSH_BYTES:
+            rec.flush()
+            unflushed = 0
+    return unflushed
 
 
 def write_recording(
@@ -298,8 +323,9 @@ def _stream_to_file(partial: Path, time: np.ndarray, checked: list[tuple[Series,
         partial.parent.mkdir(parents=True, exist_ok=True)
         _save(rec, partial, blueprint)
         blocks = _time_blocks(time)
+        unflushed = 0
         for s, values in checked:
-            _send_series(rec, s, values, blocks)
+            unflushed = _send_series(rec, s, values, blocks, unflushed)
         for entity, doc in (text or {}).items():
             rec.log(entity, rr.TextDocument(doc), static=True)
         rec.log(COMPLETE, rr.TextDocument(f"{len(time)} samples"), static=True)
