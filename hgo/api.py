@@ -108,8 +108,10 @@ def _config(cfg_or_overrides: DictConfig | Sequence[str] | None) -> DictConfig:
 def signals_frame(t, series) -> pd.DataFrame:
     """``hgo.outputs.recording.Series`` on the time grid ``t`` as one DataFrame indexed by
     ``sim_time``, columns named as ``hgo.read_recording`` names them."""
+    from hgo.outputs.recording import materialized
+
     columns = {f"{s.entity}/{name}": s.values[:, j]
-               for s in series for j, name in enumerate(s.names)}
+               for s in materialized(series) for j, name in enumerate(s.names)}
     return pd.DataFrame(columns, index=pd.Index(t, name="sim_time"))
 
 

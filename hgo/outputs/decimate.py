@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from hgo.engine.jit import kernel_helper
-from hgo.outputs.recording import Series, write_recording
+from hgo.outputs.recording import Difference, Series, write_recording
 
 log = logging.getLogger(__name__)
 MODES = ("full", "decimated", "off")
@@ -47,12 +47,25 @@ def envelope(t: np.ndarray, series: Sequence[Series], max_rows: int
     return t_out, out
 
 
-def bucket_min_max(values: np.ndarray, edges: np.ndarray) -> np.ndarray:
+PASS_ROWS = 1 << 20  # rows bucket_min_max reads at a time (a Difference computes them)
+
+
+def bucket_min_max(values: np.ndarray | Difference, edges: np.ndarray) -> np.ndarray:
     """Rows 2k and 2k + 1: the minimum and the maximum of every column of ``values``
-    (2-d, finite) over the rows ``edges[k]:edges[k + 1]`` (:func:`bucket_edges`)."""
-    values = np.asarray(values, float)
+    (2-d, finite; an array or a :class:`~hgo.outputs.recording.Difference`) over the rows
+    ``edges[k]:edges[k + 1]`` (:func:`bucket_edges`, increasing row indices of ``values``).
+    Read whole buckets of at most :data:`PASS_ROWS` rows at a time (or one bucket): a
+    derived series is never computed over the run's whole length."""
+    if not isinstance(values, Difference):
+        values = np.asarray(values, float)
     out = np.empty((2 * (len(edges) - 1), values.shape[1]))
-    _bucket_min_max(values, edges, out)
+    k = 0
+    while k < len(edges) - 1:
+        # the buckets k .. j - 1 whose rows fit in one pass
+        j = max(k + 1, int(np.searchsorted(edges, edges[k] + PASS_ROWS, "right")) - 1)
+        block = np.asarray(values[edges[k]:edges[j]], float)
+        _bucket_min_max(block, edges[k:j + 1] - edges[k], out[2 * k:2 * j])
+        k = j
     return out
 
 

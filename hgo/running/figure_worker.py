@@ -47,36 +47,44 @@ FULL_RATE = 20_000  # samples kept at full rate at each end of a run (drawing_vi
 BUCKETS = 10_000  # min/max buckets of the samples between them
 
 
-def _min_max_rows(values: np.ndarray, edges: np.ndarray) -> np.ndarray:
-    """Two rows a bucket of ``values`` (2-d): min then max, or max then min where the
-    bucket falls (its first value above its last), so a smooth curve stays smooth."""
+def _min_max_rows(values, edges: np.ndarray) -> np.ndarray:
+    """Two rows a bucket of ``values`` (2-d: an array or a
+    :class:`~hgo.outputs.recording.Difference`; ``edges``: row indices): min then max, or
+    max then min where the bucket falls (its first value above its last), so a smooth
+    curve stays smooth."""
     from hgo.outputs.decimate import bucket_min_max
 
     mm = bucket_min_max(values, edges)
     lo, hi = mm[0::2], mm[1::2]
-    falling = values[edges[:-1]] > values[edges[1:] - 1]
+    falling = np.asarray(values[edges[:-1]]) > np.asarray(values[edges[1:] - 1])
     mm[0::2], mm[1::2] = np.where(falling, hi, lo), np.where(falling, lo, hi)
     return mm
 
 
-def _reduced(values: np.ndarray, edges: np.ndarray) -> np.ndarray:
-    head, tail = values[:FULL_RATE], values[len(values) - FULL_RATE:]
-    middle = values[FULL_RATE:len(values) - FULL_RATE]
+def _reduced(values, edges: np.ndarray) -> np.ndarray:
+    """The first and last ``FULL_RATE`` rows of ``values`` and the min/max rows of the
+    buckets ``edges`` (row indices of ``values``) between them; read a pass of rows at a
+    time (:func:`hgo.outputs.decimate.bucket_min_max`), nothing of the run's length copied."""
     if values.ndim == 1:
-        return np.concatenate([head, _min_max_rows(middle[:, None], edges)[:, 0], tail])
+        return _reduced(values[:, None], edges)[:, 0]
     if values.shape[1] == 0:
-        return values[:2 * FULL_RATE + 2 * (len(edges) - 1)]
-    return np.concatenate([head, _min_max_rows(middle, edges), tail])
+        return np.asarray(values[:2 * FULL_RATE + 2 * (len(edges) - 1)])
+    n = len(values)
+    return np.concatenate([np.asarray(values[:FULL_RATE]), _min_max_rows(values, edges),
+                           np.asarray(values[n - FULL_RATE:])])
 
 
 def drawing_view(result: Any) -> Any:
     """``result`` (:class:`hgo.running.runner.RunResult`) as the figures draw it: unchanged up to
     ``2 * (FULL_RATE + BUCKETS)`` samples; else each per-sample array keeps its first and
     last ``FULL_RATE`` rows and reduces the rows between to the min/max of ``BUCKETS``
-    buckets (time stamped with each bucket's first and last sample)."""
+    buckets (time stamped with each bucket's first and last sample), reading the run a
+    pass of rows at a time: what it sends does not grow with the run, nor does what it
+    costs here."""
     import dataclasses
 
     from hgo.outputs.decimate import bucket_edges
+    from hgo.outputs.recording import Difference, materialized
 
     traj = result.trajectory
     n = len(traj.t)
@@ -87,14 +95,16 @@ def drawing_view(result: Any) -> Any:
     t_mid = np.empty(2 * BUCKETS)
     t_mid[0::2], t_mid[1::2] = middle_t[edges[:-1]], middle_t[edges[1:] - 1]
     t = np.concatenate([traj.t[:FULL_RATE], t_mid, traj.t[n - FULL_RATE:]])
+    edges = edges + FULL_RATE  # as rows of the whole run
     per_sample = {f.name: _reduced(getattr(traj, f.name), edges)
                   for f in dataclasses.fields(traj)
                   if f.name != "t" and isinstance(getattr(traj, f.name), np.ndarray)
                   and getattr(traj, f.name).shape[:1] == (n,)}
-    series = [dataclasses.replace(s, values=_reduced(np.asarray(s.values), edges))
-              if len(s.values) == n else s for s in result.series]
+    series = [dataclasses.replace(s, values=_reduced(
+        s.values if isinstance(s.values, Difference) else np.asarray(s.values), edges))
+        if len(s.values) == n else s for s in result.series]
     return dataclasses.replace(result, trajectory=dataclasses.replace(traj, t=t, **per_sample),
-                               series=series)
+                               series=materialized(series))
 
 
 def _read_all(fd: int) -> bytes:

@@ -5,6 +5,7 @@ process, or in the figure process of :mod:`hgo.running.figure_worker`)."""
 from __future__ import annotations
 
 import ast
+import dataclasses
 import importlib.util
 from collections.abc import Mapping
 from pathlib import Path
@@ -90,9 +91,12 @@ def draw_figures(cfg: DictConfig, result: RunResult) -> list[Path]:
     import matplotlib.pyplot as plt
 
     from hgo.outputs.figures import also_saved_as  # (and hgo's style, the Agg backend)
+    from hgo.outputs.recording import materialized
 
     fmt, dpi = figure_settings(cfg)
     vector = (cfg.get("figures") or {}).get("vector")
+    # figure functions get arrays (a run's derived series are computed when read)
+    result = dataclasses.replace(result, series=materialized(result.series))
     paths = []
     for name, node in figure_nodes(cfg).items():
         path = result.out_dir / f"{name}.{fmt}"

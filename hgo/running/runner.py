@@ -23,6 +23,7 @@ from datetime import datetime
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import numpy as np
 import pandas as pd
 from hydra.errors import InstantiationException
 from hydra.utils import instantiate
@@ -39,7 +40,7 @@ from hgo.noise import NoiseModel
 from hgo.outputs.console import compact_table
 from hgo.outputs.decimate import check_recording, recording_mode, write_run_recording
 from hgo.outputs.metrics import metrics_table, status_word
-from hgo.outputs.recording import Series, atomic_output, time_series_blueprint
+from hgo.outputs.recording import Difference, Series, atomic_output, time_series_blueprint
 from hgo.outputs.runs import write_run_json
 from hgo.postprocess import PostOutput
 from hgo.running.figures import check_figures, draw_figures, figure_settings
@@ -280,8 +281,18 @@ def run_experiment(exp: Experiment) -> Trajectory:
     return simulate(exp.system, exp.solver, noise)
 
 
+def _columns(values: np.ndarray, cols: list[int]) -> np.ndarray:
+    """``values[:, cols]``: a view where ``cols`` are consecutive (no copy of the run's
+    length), a copy otherwise."""
+    if cols and cols == list(range(cols[0], cols[0] + len(cols))):
+        return values[:, cols[0]:cols[0] + len(cols)]
+    return values[:, cols]
+
+
 def signals(system: System, traj: Trajectory) -> list[Series]:
-    """Every time series of a run, under the entity paths of :mod:`hgo.outputs.recording`."""
+    """Every time series of a run, under the entity paths of :mod:`hgo.outputs.recording`;
+    no copy of the run's length: views of the trajectory, the estimation errors as
+    :class:`~hgo.outputs.recording.Difference` (computed when read)."""
     plant = system.plant
     x = traj.z[:, : plant.nx]
     out = [Series("/plant/x", plant.state_names, x),
@@ -295,11 +306,11 @@ def signals(system: System, traj: Trajectory) -> list[Series]:
         xh = traj.xh[:, xa:xb]
         out.append(Series(f"/observer/{obs.name}/xhat", [f"{n}_hat" for n in est], xh))
         out.append(Series(f"/error/{obs.name}", [f"e_{n}" for n in est],
-                          xh - x[:, obs.estimated_states]))
+                          Difference(xh, x, tuple(obs.estimated_states))))
         for sig, cols in obs.signals.items():
             names = [sig] if len(cols) == 1 else [f"{sig}{i + 1}" for i in range(len(cols))]
             out.append(Series(f"/observer/{obs.name}/{sig}", names,
-                              traj.z[:, [za + c for c in cols]]))
+                              _columns(traj.z, [za + c for c in cols])))
         if db > da:
             out.append(Series(f"/observer/{obs.name}/discrete", obs.disc_names,
                               traj.d[:, da:db]))
