@@ -120,3 +120,18 @@ def test_readme_what_reproduces_table_is_the_registry():
     readme = (ROOT / "README.md").read_text()
     start, end = "<!-- what-reproduces:start -->\n", "<!-- what-reproduces:end -->"
     assert readme[readme.index(start) + len(start):readme.index(end)] == registry_table()
+
+
+def test_null_value_override_is_composed_as_hydra_does():
+    """``figures.vector=pdf`` (null in config.yaml, set on every reproduce job) is applied
+    to the composed preset, not composed by Hydra again; the config is Hydra's."""
+    from hgo.core.config import compose
+    from hgo.running import in_memory
+    from hgo.running.runner import job_config_yaml
+
+    overrides = ("experiment=sp_fig2", "figures.vector=pdf")
+    in_memory._compose_base.cache_clear()
+    fast = in_memory.compose_cached(overrides)
+    assert in_memory._compose_base.cache_info().misses == 1  # the preset alone
+    assert fast.figures.vector == "pdf"
+    assert job_config_yaml(fast) == job_config_yaml(compose(list(overrides)))
