@@ -81,3 +81,35 @@ def test_dimassi_settle_time_is_never_when_the_signal_leaves_the_band_in_the_win
     settles = _grid_run(t, np.array([1.0, 0.01, 0.05, 0.02, 0.01]))
     assert settle_time(settles, _v, 0.1, 10.0, 20.0) == pytest.approx(
         (1.0 - 0.1) / (1.0 - 0.01) * 5.0, abs=1e-10)
+
+
+class _Counting:
+    """A signal source whose bound method counts its calls."""
+
+    def __init__(self) -> None:
+        self.calls = 0
+
+    def v(self, s: Trajectory) -> np.ndarray:
+        self.calls += 1
+        return np.abs(s.z[:, 0] - 1.0)  # kinks at the crossings of 1: refined pieces
+
+
+def test_a_bound_method_signal_is_integrated_once_per_window() -> None:
+    """std after mean of the same bound method reuses the integral (the signal is not sampled
+    again for it) and gives the value computed afresh; a lambda is not remembered."""
+    t = np.linspace(0.0, 3.0, 31)
+    run = _grid_run(t, 1.0 + np.sin(3 * t))
+    fresh = _grid_run(t, 1.0 + np.sin(3 * t))
+    src = _Counting()
+    m = dense.mean(run, src.v, 0.2, 2.9)
+    after_mean = src.calls
+    sd = dense.std(run, src.v, 0.2, 2.9)
+    m_ref = dense.mean(fresh, lambda s: src.v(s), 0.2, 2.9)
+    sd_ref = math.sqrt(dense.mean(fresh, lambda s: (src.v(s) - m_ref) ** 2, 0.2, 2.9))
+    assert m == m_ref and sd == sd_ref
+    again = src.calls
+    dense.mean(run, src.v, 0.2, 2.9)
+    assert src.calls == again  # remembered
+    dense.mean(run, lambda s: src.v(s), 0.2, 2.9)
+    assert src.calls > again  # not remembered
+    assert after_mean > 0

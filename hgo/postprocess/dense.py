@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from types import MethodType
 
 import numpy as np
 from scipy.optimize import minimize_scalar
@@ -181,7 +182,18 @@ def integral(run: DenseRun, signal: Signal, a: float, b: float) -> float:
     """int_a^b signal dt: 3-point Gauss-Legendre on each step's part of [a, b], each piece
     halved until the halves agree with the whole to QTOL (signal units) times its length,
     at most MAX_HALVINGS times: the signals have kinks inside steps (saturations of an
-    estimate), where one Gauss rule per step is off by O(h^2) of the slope's jump."""
+    estimate), where one Gauss rule per step is off by O(h^2) of the slope's jump.
+
+    A signal that is a bound method (the same method of the same object) is integrated
+    once per run and window: :func:`std` integrates the signal whose :func:`mean` a caller
+    has just taken."""
+    if isinstance(signal, MethodType):
+        return _cached(run, ("integral", signal, a, b),
+                       lambda: (_integral(run, signal, a, b),))[0]
+    return _integral(run, signal, a, b)
+
+
+def _integral(run: DenseRun, signal: Signal, a: float, b: float) -> float:
     _, _, s = _gauss(run, a, b)
     edges = run.boundaries(a, b)
     lo, width = edges[:-1], np.diff(edges)
