@@ -152,3 +152,16 @@ def test_profile_input_drives_x2_along_the_profile(ramp):
     jump = max(abs(profile(5.0 + 1e-12, c.p)[1] - profile(5.0 - 1e-12, c.p)[1]),
                abs(profile(5.5 + 1e-12, c.p)[1] - profile(5.5 - 1e-12, c.p)[1]))
     assert jump < 1e-9 if ramp == "smooth" else abs(jump - 4.0) < 1e-9
+
+
+def test_eps_max_fd_is_remembered_for_an_equal_error_system():
+    """A second error system with the same gains is answered from memory (the K~1 search
+    asks for the same values on every run), with the value computed afresh."""
+    th._eps_max_fd.cache_clear()
+    first = th.eps_max_fd(example_error_system(2, 200, 120, 0), 0.5)
+    computed = th._eps_max_fd.cache_info().misses
+    again = th.eps_max_fd(example_error_system(2, 200, 120, 0), 0.5)
+    assert again == first and th._eps_max_fd.cache_info().misses == computed == 1
+    assert th._eps_max_fd.cache_info().hits == 1
+    th._eps_max_fd.cache_clear()
+    assert th.eps_max_fd(example_error_system(2, 200, 120, 0), 0.5) == first

@@ -257,8 +257,20 @@ def k1a_fd(es: ErrorSystem, lo: float = -1e3, hi: float = 1e3, tol: float = 1e-1
 
 
 def eps_max_fd(es: ErrorSystem, rho: float, rtol: float = 1e-9, cap: float = 1e4) -> float:
-    """eps_max(rho) = 2 sup{mu >= 0 : H_rho(s - mu) SPR}; -inf if H_rho is not SPR."""
-    num, den = loop_transformed(*es.transfer(), rho)
+    """eps_max(rho) = 2 sup{mu >= 0 : H_rho(s - mu) SPR}; -inf if H_rho is not SPR.
+
+    Remembered by G's coefficients and the arguments (~100 exact SPR tests a call; the K~1
+    search of :func:`hgo.papers.moreno.postprocess.best_K1t` asks for the same 60 values
+    on every run of one observer)."""
+    num, den = es.transfer()
+    return _eps_max_fd(tuple(map(float, num)), tuple(map(float, den)), float(rho),
+                       float(rtol), float(cap))
+
+
+@functools.lru_cache(maxsize=4096)
+def _eps_max_fd(num_g: tuple[float, ...], den_g: tuple[float, ...], rho: float, rtol: float,
+                cap: float) -> float:
+    num, den = loop_transformed(np.array(num_g), np.array(den_g), rho)
     ok = lambda m: spr_exact(shifted(num, m), shifted(den, m))  # noqa: E731
     if not ok(0.0):
         return -np.inf
