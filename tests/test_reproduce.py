@@ -135,3 +135,21 @@ def test_null_value_override_is_composed_as_hydra_does():
     assert in_memory._compose_base.cache_info().misses == 1  # the preset alone
     assert fast.figures.vector == "pdf"
     assert job_config_yaml(fast) == job_config_yaml(compose(list(overrides)))
+
+
+def test_tasks_are_handed_out_longest_first_by_the_last_durations(tmp_path, monkeypatch):
+    """The durations a reproduce recorded (in the kernel cache) order the next one: the
+    longest first, the never-timed before all (in their given order); a claims task counts
+    the seconds of its claims."""
+    from hgo.reproduce.run import TaskTimes
+
+    monkeypatch.setenv("HGO_CACHE_DIR", str(tmp_path))
+    times = TaskTimes.load()
+    assert times.seconds == {}
+    times.record("claims of a", {"c1": {"seconds": 1.0}, "c2": {"seconds": 5.0}})
+    times.record("job b", {"status": "ok", "seconds": 2.5})
+    times.save()
+    again = TaskTimes.load()
+    assert again.seconds == {"claims of a": 6.0, "job b": 2.5}
+    order = again.longest_first(["job b", "new1", "claims of a", "new2"], lambda t: t)
+    assert order == ["new1", "new2", "claims of a", "job b"]

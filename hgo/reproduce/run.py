@@ -24,6 +24,7 @@ import argparse
 import hashlib
 import importlib
 import json
+import math
 import multiprocessing
 import os
 import sys
@@ -82,8 +83,9 @@ def _silence_logs() -> None:
     logging.getLogger("hgo").setLevel(logging.WARNING)
 
 
-def run_job(overrides: tuple[str, ...], job_dir: str, key: str) -> dict:
-    """One figure job into ``job_dir`` (Hydra's ``.hydra/`` files written too)."""
+def run_job(overrides: tuple[str, ...], job_dir: str, key: str, cfg=None) -> dict:
+    """One figure job into ``job_dir`` (Hydra's ``.hydra/`` files written too); ``cfg``:
+    the composed config of ``overrides`` when the caller has it (else composed here)."""
     import yaml
 
     from hgo.running.in_memory import compose_cached
@@ -93,7 +95,7 @@ def run_job(overrides: tuple[str, ...], job_dir: str, key: str) -> dict:
     out = Path(job_dir)
     (out / ".hydra").mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    cfg = compose_cached(tuple(overrides))
+    cfg = compose_cached(tuple(overrides)) if cfg is None else cfg
     (out / ".hydra" / "config.yaml").write_text(job_config_yaml(cfg))
     (out / ".hydra" / "overrides.yaml").write_text(yaml.safe_dump(list(overrides[1:])))
     status = "ok"
@@ -201,42 +203,116 @@ def failures(plan: list[Job], claim_files: dict[str, Path]) -> list[str]:
 
 def reproduce(papers: list[str], jobs: int, root: Path) -> Path:
     """Run everything of ``papers`` with ``jobs`` processes; return the report directory
-    (the jobs and claims that failed: :func:`failures`)."""
+    (the jobs and claims that failed: :func:`failures`).
+
+    The claims start before the figure jobs are planned (composing their configs takes
+    seconds) and every task is handed out longest first by the durations of the last
+    reproduce (:class:`TaskTimes`), so that no worker waits while another finishes a long
+    paper; a sweep's combined figures are drawn by a worker as soon as its jobs are done."""
     from hgo.core.registry import all_claims
 
     t0 = time.perf_counter()
     fingerprint = code_fingerprint()
-    plan = plan_jobs(papers, root / "runs", fingerprint)
     claims_dir = root / "claims"
     claims_dir.mkdir(parents=True, exist_ok=True)
     claim_files = {p: claims_dir / f"{p}-{fingerprint}.json" for p in papers}
-    todo_jobs = [j for j in plan if not j.done()]
     todo_claims = [p for p in papers if all_claims([p]) and not claim_files[p].exists()]
-    reused = len(plan) - len(todo_jobs) + sum(1 for p in papers if p not in todo_claims)
-    n = len(todo_jobs) + len(todo_claims)
-    print(f"reproduce: {', '.join(papers)}: {len(plan)} figure jobs, claims of "
-          f"{len(papers)} papers; {n} to run, {reused} reused from {root}", flush=True)
+    times = TaskTimes.load()
     ctx = multiprocessing.get_context("fork")
     with ProcessPoolExecutor(max_workers=max(1, jobs), mp_context=ctx) as pool:
-        # claims first: a paper's claims run sequentially in one process (shared runs)
         futures = {pool.submit(run_claims, p, str(claim_files[p])): f"claims of {p}"
-                   for p in todo_claims}
-        futures.update({pool.submit(run_job, j.overrides, str(j.dir), j.key):
-                        " ".join(j.overrides) for j in todo_jobs})
-        for k, fut in enumerate(as_completed(futures), 1):
+                   for p in times.longest_first(todo_claims, lambda p: f"claims of {p}")}
+        plan = plan_jobs(papers, root / "runs", fingerprint)
+        todo_jobs = [j for j in plan if not j.done()]
+        reused = len(plan) - len(todo_jobs) + sum(1 for p in papers if p not in todo_claims)
+        n = len(todo_jobs) + len(todo_claims)
+        print(f"reproduce: {', '.join(papers)}: {len(plan)} figure jobs, claims of "
+              f"{len(papers)} papers; {n} to run, {reused} reused from {root}", flush=True)
+        from hgo.running.in_memory import compose_cached
+
+        futures.update({pool.submit(run_job, j.overrides, str(j.dir), j.key,
+                                    compose_cached(j.overrides)): " ".join(j.overrides)
+                        for j in times.longest_first(todo_jobs, _job_name)})
+        sweeps = {j.dir.parent: [] for j in plan if j.figure.sweep}
+        for j in todo_jobs:
+            sweeps.get(j.dir.parent, []).append(" ".join(j.overrides))
+        k = 0
+        while futures:
+            fut = next(as_completed(futures))
+            name = futures.pop(fut)
             try:
                 result = fut.result()
-                status = result.get("status", "done") if "status" in result else "done"
+                status = result.get("status", "done") if isinstance(result, dict) else "done"
+                times.record(name, result)
             except Exception as err:  # a crashed worker: the report says what is missing
                 status = f"crashed: {err!r}"
-            _progress(k, n, f"{futures[fut]} -> {status}", t0)
-    _combine(plan)
+            if name.startswith("combine "):
+                continue
+            k += 1
+            _progress(k, n, f"{name} -> {status}", t0)
+            for sweep, left in sweeps.items():  # the sweep's last job: combine it now
+                if name in left:
+                    left.remove(name)
+                    if not left:
+                        futures[pool.submit(_combine, [j for j in plan
+                                                      if j.dir.parent == sweep])] = \
+                            f"combine {sweep}"
+    _combine(plan)  # (sweeps reused, or whose combination failed above)
+    times.save()
     from hgo.reproduce.report import write_report
 
     out = root / datetime.now().strftime("%Y-%m-%d_%H-%M-%S")
     write_report(out, papers, plan, claim_files, time.perf_counter() - t0)
     LAST_FAILURES[:] = failures(plan, claim_files)
     return out
+
+
+def _job_name(job: Job) -> str:
+    return " ".join(job.overrides)
+
+
+class TaskTimes:
+    """Seconds each task (a paper's claims, a figure job by its overrides) took the last
+    time it ran, kept in the kernel cache (``reproduce_seconds.json``): only the order in
+    which tasks are handed out depends on them, never a result."""
+
+    FILE = "reproduce_seconds.json"
+
+    def __init__(self, seconds: dict[str, float], path: Path | None) -> None:
+        self.seconds, self.path = seconds, path
+
+    @classmethod
+    def load(cls) -> TaskTimes:
+        try:
+            from hgo.engine.codegen import cache_dir
+
+            path = cache_dir() / cls.FILE
+            seconds = json.loads(path.read_text()) if path.exists() else {}
+            return cls(seconds if isinstance(seconds, dict) else {}, path)
+        except (OSError, ValueError):
+            return cls({}, None)
+
+    def longest_first(self, tasks: list, name) -> list:
+        """``tasks`` by their last seconds, longest first; those never timed first of all,
+        in their given order."""
+        return sorted(tasks, key=lambda t: -self.seconds.get(name(t), math.inf))
+
+    def record(self, name: str, result) -> None:
+        if name.startswith("claims of ") and isinstance(result, dict):
+            self.seconds[name] = sum(e.get("seconds", 0.0) for e in result.values()
+                                     if isinstance(e, dict))
+        elif isinstance(result, dict) and "seconds" in result:
+            self.seconds[name] = float(result["seconds"])
+
+    def save(self) -> None:
+        if self.path is None:
+            return
+        try:
+            tmp = self.path.with_suffix(f".{os.getpid()}.tmp")
+            tmp.write_text(json.dumps(self.seconds, indent=1, sort_keys=True))
+            tmp.replace(self.path)
+        except OSError:
+            pass
 
 
 LAST_FAILURES: list[str] = []  # of the last reproduce() of this process
