@@ -9,7 +9,7 @@ from __future__ import annotations
 import functools
 
 
-@functools.lru_cache(maxsize=32)
+@functools.lru_cache(maxsize=1024)  # (small dicts: AK's trade-off sweeps ask for 80 runs twice)
 def run_rows(overrides: tuple[str, ...]) -> dict[tuple[str, str], float]:
     """Compose ``overrides``, simulate and post-process (no files written); the metric
     rows as (observer, quantity) -> empirical. Cached: claims that need the same run
@@ -18,7 +18,7 @@ def run_rows(overrides: tuple[str, ...]) -> dict[tuple[str, str], float]:
             for r in run_in_memory(overrides).metrics.to_dict("records")}
 
 
-@functools.lru_cache(maxsize=8)
+@functools.lru_cache(maxsize=16)  # (every run of a paper's claims: 14 at most, Moreno/APA)
 def run_in_memory(overrides: tuple[str, ...]):
     """The run of ``overrides`` without files: a :class:`hgo.running.runner.MemoryRun`."""
     from hgo.running.runner import simulate_config
