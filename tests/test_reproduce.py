@@ -153,3 +153,23 @@ def test_tasks_are_handed_out_longest_first_by_the_last_durations(tmp_path, monk
     assert again.seconds == {"claims of a": 6.0, "job b": 2.5}
     order = again.longest_first(["job b", "new1", "claims of a", "new2"], lambda t: t)
     assert order == ["new1", "new2", "claims of a", "job b"]
+
+
+def test_a_sweep_is_combined_in_a_worker_even_when_its_combiner_does_not_pickle(tmp_path):
+    """Ahrens & Khalil's Fig. 2 combiner is a local function (it cannot be sent to a
+    worker): the worker is sent (paper, figure index, job directory, key) and finds the
+    figure itself."""
+    import pickle
+    from pathlib import Path as P
+
+    from hgo.reproduce.run import _figure_index, plan_jobs
+
+    plan = [j for j in plan_jobs(["ahrens_khalil"], tmp_path, "fp") if j.figure.sweep]
+    fig2 = [j for j in plan if j.figure.preset == "ak_fig2"]
+    with pytest.raises((pickle.PicklingError, AttributeError, TypeError)):
+        pickle.dumps(fig2[0].figure.combine)
+    sent = pickle.loads(pickle.dumps([(j.paper, _figure_index(j), str(j.dir), j.key)
+                                      for j in fig2]))
+    for (paper, index, d, key), job in zip(sent, fig2, strict=True):
+        assert paper_figures(paper)[index] is job.figure and P(d) == job.dir
+        assert key == job.key

@@ -257,9 +257,9 @@ def reproduce(papers: list[str], jobs: int, root: Path) -> Path:
                 if name in left:
                     left.remove(name)
                     if not left:
-                        futures[pool.submit(_combine, [j for j in plan
-                                                      if j.dir.parent == sweep])] = \
-                            f"combine {sweep}"
+                        futures[pool.submit(_combine_sweep, [
+                            (j.paper, _figure_index(j), str(j.dir), j.key)
+                            for j in plan if j.dir.parent == sweep])] = f"combine {sweep}"
     _combine(plan)  # (sweeps reused, or whose combination failed above)
     times.save()
     from hgo.reproduce.report import write_report
@@ -319,6 +319,17 @@ class TaskTimes:
 
 
 LAST_FAILURES: list[str] = []  # of the last reproduce() of this process
+
+
+def _figure_index(job: Job) -> int:
+    return next(i for i, f in enumerate(paper_figures(job.paper)) if f is job.figure)
+
+
+def _combine_sweep(jobs: list[tuple[str, int, str, str]]) -> None:
+    """:func:`_combine` of one sweep in a worker, its jobs as (paper, index of the figure in
+    its PAPER_FIGURES, directory, key): a figure's combiner need not pickle."""
+    _combine([Job(paper, paper_figures(paper)[index], (), Path(d), key)
+              for paper, index, d, key in jobs])
 
 
 def _combine(plan: list[Job]) -> None:
