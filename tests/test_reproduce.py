@@ -151,8 +151,12 @@ def test_tasks_are_handed_out_longest_first_by_the_last_durations(tmp_path, monk
     times.save()
     again = TaskTimes.load()
     assert again.seconds == {"claims of a": 6.0, "job b": 2.5}
-    order = again.longest_first(["job b", "new1", "claims of a", "new2"], lambda t: t)
+    order = again.longest_first(["job b", "new1", "claims of a", "new2"], lambda t: [t])
     assert order == ["new1", "new2", "claims of a", "job b"]
+    # a sweep's job counts its combination too (never timed: 0)
+    again.record("combine s", {"seconds": 4.0})
+    costs = {"job b": ["job b", "combine s"], "claims of a": ["claims of a", "combine x"]}
+    assert again.longest_first(["claims of a", "job b"], costs.get) == ["job b", "claims of a"]
 
 
 def test_a_sweep_is_combined_in_a_worker_even_when_its_combiner_does_not_pickle(tmp_path):

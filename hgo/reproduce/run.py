@@ -224,7 +224,7 @@ def reproduce(papers: list[str], jobs: int, root: Path) -> Path:
     ctx = multiprocessing.get_context("fork")
     with ProcessPoolExecutor(max_workers=max(1, jobs), mp_context=ctx) as pool:
         futures = {pool.submit(run_claims, p, str(claim_files[p])): f"claims of {p}"
-                   for p in times.longest_first(todo_claims, lambda p: f"claims of {p}")}
+                   for p in times.longest_first(todo_claims, lambda p: [f"claims of {p}"])}
         plan = plan_jobs(papers, root / "runs", fingerprint)
         todo_jobs = [j for j in plan if not j.done()]
         reused = len(plan) - len(todo_jobs) + sum(1 for p in papers if p not in todo_claims)
@@ -235,7 +235,7 @@ def reproduce(papers: list[str], jobs: int, root: Path) -> Path:
 
         futures.update({pool.submit(run_job, j.overrides, str(j.dir), j.key,
                                     compose_cached(j.overrides)): " ".join(j.overrides)
-                        for j in times.longest_first(todo_jobs, _job_name)})
+                        for j in times.longest_first(todo_jobs, _job_costs)})
         sweeps = {j.dir.parent: [] for j in plan if j.figure.sweep}
         for j in todo_jobs:
             sweeps.get(j.dir.parent, []).append(" ".join(j.overrides))
@@ -259,7 +259,8 @@ def reproduce(papers: list[str], jobs: int, root: Path) -> Path:
                     if not left:
                         futures[pool.submit(_combine_sweep, [
                             (j.paper, _figure_index(j), str(j.dir), j.key)
-                            for j in plan if j.dir.parent == sweep])] = f"combine {sweep}"
+                            for j in plan if j.dir.parent == sweep])] = \
+                            _combine_name(sweep, plan)
     _combine(plan)  # (sweeps reused, or whose combination failed above)
     times.save()
     from hgo.reproduce.report import write_report
@@ -270,8 +271,15 @@ def reproduce(papers: list[str], jobs: int, root: Path) -> Path:
     return out
 
 
-def _job_name(job: Job) -> str:
-    return " ".join(job.overrides)
+def _job_costs(job: Job) -> list[str]:
+    """The tasks a job's cost is the sum of: itself, and its sweep's combination (handed
+    out when the sweep's last job ends: a sweep timed last would leave it to the end)."""
+    return [" ".join(job.overrides)] + ([f"combine {job.figure.preset}"]
+                                        if job.figure.sweep else [])
+
+
+def _combine_name(sweep: Path, plan: list[Job]) -> str:
+    return f"combine {next(j.figure.preset for j in plan if j.dir.parent == sweep)}"
 
 
 class TaskTimes:
@@ -295,10 +303,12 @@ class TaskTimes:
         except (OSError, ValueError):
             return cls({}, None)
 
-    def longest_first(self, tasks: list, name) -> list:
-        """``tasks`` by their last seconds, longest first; those never timed first of all,
-        in their given order."""
-        return sorted(tasks, key=lambda t: -self.seconds.get(name(t), math.inf))
+    def longest_first(self, tasks: list, names) -> list:
+        """``tasks`` by their last seconds (the sum over ``names(task)``), longest first;
+        those never timed first of all, in their given order."""
+        return sorted(tasks, key=lambda t: -sum(self.seconds.get(n, math.inf if k == 0
+                                                                   else 0.0)
+                                                for k, n in enumerate(names(t))))
 
     def record(self, name: str, result) -> None:
         if name.startswith("claims of ") and isinstance(result, dict):
@@ -325,11 +335,13 @@ def _figure_index(job: Job) -> int:
     return next(i for i, f in enumerate(paper_figures(job.paper)) if f is job.figure)
 
 
-def _combine_sweep(jobs: list[tuple[str, int, str, str]]) -> None:
+def _combine_sweep(jobs: list[tuple[str, int, str, str]]) -> dict:
     """:func:`_combine` of one sweep in a worker, its jobs as (paper, index of the figure in
     its PAPER_FIGURES, directory, key): a figure's combiner need not pickle."""
+    t0 = time.perf_counter()
     _combine([Job(paper, paper_figures(paper)[index], (), Path(d), key)
               for paper, index, d, key in jobs])
+    return {"seconds": time.perf_counter() - t0}
 
 
 def _combine(plan: list[Job]) -> None:
