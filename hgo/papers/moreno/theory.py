@@ -115,7 +115,11 @@ class _Lmi7a:
     def solve(self, K1: float, eps: float) -> float:
         self.K1.value, self.eps.value = float(K1), float(eps)
         try:
-            self.problem.solve(solver=SOLVER)
+            # no warm start: the LMI object is shared (_lmi) and cvxpy would start from the
+            # last solve's data, so a result would depend on what the process solved
+            # before (lambda_min(P) of moreno_fig1's design 0.8183145599629091 fresh,
+            # ...051 after any earlier solve): hgo reproduce's workers run tasks in any order
+            self.problem.solve(solver=SOLVER, warm_start=False)
         except cp.error.SolverError:
             return -np.inf
         if self.problem.status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
