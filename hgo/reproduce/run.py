@@ -86,6 +86,7 @@ def run_job(overrides: tuple[str, ...], job_dir: str, key: str) -> dict:
     """One figure job into ``job_dir`` (Hydra's ``.hydra/`` files written too)."""
     import yaml
 
+    from hgo.running.ensemble_runner import is_ensemble, run_ensemble
     from hgo.running.in_memory import compose_cached
     from hgo.running.runner import job_config_yaml, run
 
@@ -97,8 +98,8 @@ def run_job(overrides: tuple[str, ...], job_dir: str, key: str) -> dict:
     (out / ".hydra" / "config.yaml").write_text(job_config_yaml(cfg))
     (out / ".hydra" / "overrides.yaml").write_text(yaml.safe_dump(list(overrides[1:])))
     status = "ok"
-    try:
-        run(cfg, out)
+    try:  # a grid preset's figures are its ensemble's reports (as under ``hgo run``)
+        run_ensemble(cfg, out) if is_ensemble(cfg) else run(cfg, out)
     except Exception as err:  # the report lists it; the other jobs go on
         status = f"failed: {err}"
     info = {"key": key, "overrides": list(overrides), "status": status,
