@@ -4,11 +4,11 @@
 
 For each problem, hgo's whole in-process call as a user's script makes it (the system or
 experiment built once; then ``simulate(system, solver, noise)`` or
-``run_experiment(experiment)``: its Python set-up, the hand-off to the worker thread, the
+``run_experiment(experiment)``: its Python set-up, the Ctrl-C watch (``hgo.engine.interrupt``), the
 compiled integration, the output arrays) against a hand-written numba kernel of the same
 method, tolerances and steps, checked to give the same trajectory (max |difference| over
 the grid, relative to max(1, max |state|) per state, printed). Times: CPU seconds of the
-process (hgo's worker thread included), medians of interleaved calls (``REPS``).
+process (all its threads), medians of interleaved calls (``REPS``).
 
 * A: switched DC motor (``problems.a_system``), RK4, against ``baselines.a_kernel``;
 * B: Sanfelice & Praly (20) (``problems.b_system``), DOPRI5 rtol 1e-8, against

@@ -113,3 +113,24 @@ def test_a_bound_method_signal_is_integrated_once_per_window() -> None:
     dense.mean(run, lambda s: src.v(s), 0.2, 2.9)
     assert src.calls > again  # not remembered
     assert after_mean > 0
+
+
+def test_a_run_with_its_steps_pickles_after_use_and_evaluates_alike() -> None:
+    """A run whose steps were already evaluated (its kernel function loaded) pickles, as the
+    figure process needs (``hgo run experiment=apa_fig1`` failed: "Can't pickle local object
+    'compiled_first.<locals>.call'"), and the copy gives the same signals."""
+    import pickle
+    from dataclasses import replace
+
+    from hgo.core.config import compose
+    from hgo.engine.simulate import simulate
+    from hgo.running.runner import build
+
+    exp = build(compose(["experiment=apa_fig1"]))
+    solver = replace(exp.solver, t_end=2.0, window=1.0, dense_steps=True)
+    traj = simulate(exp.system, solver, exp.noise.sample(2.0, 1, exp.seed))
+    ts = np.linspace(0.0, 2.0, 7)
+    before = traj.dense.at(ts)
+    after = pickle.loads(pickle.dumps(traj)).dense.at(ts)
+    for field in ("z", "y", "xh"):
+        np.testing.assert_array_equal(getattr(after, field), getattr(before, field))

@@ -517,3 +517,12 @@ def test_view_skips_a_file_that_is_not_a_recording(runs_root, capsys):
     code, _, err = _hgo(capsys, "view", "notrrd.rrd")
     assert code == 2 and err.strip().splitlines()[-1] == (
         "error: no readable recording among notrrd.rrd")
+
+
+def test_two_hydra_modes_at_once_are_one_line_exit_2(capsys):
+    """``hgo run -m ... --cfg hydra`` (Hydra raised a ValueError with a traceback, exit 1):
+    one line naming both modes and the allowed ones, exit 2, before Hydra starts."""
+    code, out, err = _hgo(capsys, "run", "-m", "experiment=sp_fig3", "--cfg", "hydra")
+    assert code == 2 and out == ""
+    assert err == ("error: --cfg and --multirun: one mode at a time (allowed: --cfg, --info, "
+                   "--multirun, --run, --shell-completion)\n")

@@ -37,6 +37,7 @@ def run_app(args: list[str], prog: str = "hgo run") -> int:
 
     try:
         check_override_lengths(args)
+        check_one_mode(args)
     except ConfigError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
@@ -48,6 +49,22 @@ def run_app(args: list[str], prog: str = "hgo run") -> int:
     signal.signal(signal.SIGTERM, signal.default_int_handler)
     cli_main()
     return 0
+
+
+# Hydra's modes, of which a command line takes one (Hydra itself raises a ValueError)
+MODES = {"-m": "--multirun", "--multirun": "--multirun", "-r": "--run", "--run": "--run",
+         "-c": "--cfg", "--cfg": "--cfg", "-i": "--info", "--info": "--info",
+         "-sc": "--shell-completion", "--shell-completion": "--shell-completion"}
+
+
+def check_one_mode(args: list[str]) -> None:
+    """Refuse two of Hydra's modes at once (``-m ... --cfg job``) in one line."""
+    from hgo.core.errors import ConfigError
+
+    given = sorted({MODES[a.partition("=")[0]] for a in args if a.partition("=")[0] in MODES})
+    if len(given) > 1:
+        raise ConfigError(" and ".join(given), "one mode at a time",
+                          ", ".join(sorted(set(MODES.values()))))
 
 
 def _reproduce(args: list[str]) -> int:

@@ -570,8 +570,9 @@ def _decorators(compiled: bool) -> dict[str, object]:
 
     # error_model="numpy": a division by zero gives inf/nan (caught as status 1) instead of
     # raising, and drops a branch from every division of the hot loop.
-    # nogil: the integration runs in a worker thread while the main thread waits for Ctrl-C
-    # (hgo.engine.simulate); it holds no Python object, so releasing the GIL is free.
+    # nogil: while the integration runs, the thread that turns Ctrl-C into its stop flag
+    # (hgo.engine.interrupt) needs the GIL; the kernel holds no Python object, so releasing
+    # it is free.
     opts = {"cache": True, "error_model": "numpy", "fastmath": set(FASTMATH), "nogil": True}
     # Inlined helpers are never called from Python: they skip the CPython wrapper numba
     # would otherwise compile through LLVM too (measured: ~15 % of a fresh compile of

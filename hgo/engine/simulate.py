@@ -192,6 +192,12 @@ class StepRecord:
         return Trajectory(ts, *rec, 0, float(ts[-1]) if len(ts) else 0.0,
                           np.full(sysm.n_acc(), np.nan))
 
+    def __getstate__(self) -> dict:
+        # without the loaded kernel function (a closure of this process): a run sent to the
+        # figure process loads it there (`hgo run experiment=apa_fig1` failed with "Can't
+        # pickle local object 'compiled_first.<locals>.call'")
+        return {k: v for k, v in self.__dict__.items() if k != "_signals"}
+
 
 @dataclass
 class DenseRun:

@@ -88,6 +88,7 @@ def run_job(overrides: tuple[str, ...], job_dir: str, key: str, cfg=None) -> dic
     the composed config of ``overrides`` when the caller has it (else composed here)."""
     import yaml
 
+    from hgo.running.ensemble_runner import is_ensemble, run_ensemble
     from hgo.running.in_memory import compose_cached
     from hgo.running.runner import job_config_yaml, run
 
@@ -99,8 +100,8 @@ def run_job(overrides: tuple[str, ...], job_dir: str, key: str, cfg=None) -> dic
     (out / ".hydra" / "config.yaml").write_text(job_config_yaml(cfg))
     (out / ".hydra" / "overrides.yaml").write_text(yaml.safe_dump(list(overrides[1:])))
     status = "ok"
-    try:
-        run(cfg, out)
+    try:  # a grid preset's figures are its ensemble's reports (as under ``hgo run``)
+        run_ensemble(cfg, out) if is_ensemble(cfg) else run(cfg, out)
     except Exception as err:  # the report lists it; the other jobs go on
         status = f"failed: {err}"
     info = {"key": key, "overrides": list(overrides), "status": status,
