@@ -180,9 +180,16 @@ def bound_yaml_aliases() -> None:
     utils.get_yaml_loader = get_yaml_loader
 
 
+_REGISTERED: list[bool] = []  # (once per process: the ConfigStore is a process singleton)
+
+
 def register_configs() -> None:
-    """Store every schema in Hydra's ConfigStore (idempotent)."""
+    """Store every schema in Hydra's ConfigStore (idempotent). Stored once a process: Hydra
+    hands out copies of what is stored, and storing again cost 0.044 s of a 0.19 s compose
+    (an ``hgo reproduce`` composes ~50 times)."""
     bound_yaml_aliases()
+    if _REGISTERED:
+        return
     cs = ConfigStore.instance()
     cs.store(group="schema/plant", name="sp_linear", node=SPLinearPlantConf)
     cs.store(group="schema/observer", name="triangular", node=TriangularHGOConf)
@@ -195,6 +202,7 @@ def register_configs() -> None:
         for path, node in module.SCHEMAS.items():
             group, name = path.rsplit("/", 1)
             cs.store(group=f"schema/{group}", name=name, node=node)
+    _REGISTERED.append(True)
 
 
 def conf_dir() -> Path:
