@@ -80,13 +80,17 @@ def drawing_view(result: Any) -> Any:
     last ``FULL_RATE`` rows and reduces the rows between to the min/max of ``BUCKETS``
     buckets (time stamped with each bucket's first and last sample), reading the run a
     pass of rows at a time: what it sends does not grow with the run, nor does what it
-    costs here."""
+    costs here. Never the run's steps (``trajectory.dense``, kept for post-processors):
+    figures draw the output grid."""
     import dataclasses
 
     from hgo.outputs.decimate import bucket_edges
     from hgo.outputs.recording import Difference, materialized
 
     traj = result.trajectory
+    if traj.dense is not None:
+        traj = dataclasses.replace(traj, dense=None)
+        result = dataclasses.replace(result, trajectory=traj)
     n = len(traj.t)
     if n <= 2 * (FULL_RATE + BUCKETS) or not traj.ok:
         return result
