@@ -97,3 +97,34 @@ def test_two_processes_needing_one_new_kernel_compile_it_once(tmp_path):
                               stdout=subprocess.PIPE, text=True) for _ in range(2)]
     counts = sorted(tuple(map(int, p.communicate(timeout=600)[0].split())) for p in procs)
     assert counts == [(0, 1), (1, 0)]  # (misses, hits): one compile, one cache load
+
+
+TRAJECTORY_HASH = textwrap.dedent('''
+    import hashlib
+    import numpy as np
+    from hgo.engine.simulate import SolverSettings, no_noise, simulate
+    from hgo.engine.system import System
+    from hgo.observers.triangular import triangular_hgo
+    from hgo.plants.sp_linear import sp_linear_plant
+
+    obs = triangular_hgo("b", K=[2, 2], xhat0=[3.0, 3.0], r0=1, law="sign_indefinite",
+                         p1=4 / 3, p2=1.5, b=0.28, M=[[3, 0], [0, 0]])
+    system = System(sp_linear_plant(nu1=3, nu2=0, x0=(0, 0)), [obs])
+    tr = simulate(system, SolverSettings(t_end=20.0, dt_out=0.01, method="dop853",
+                                         h_max=20.0, rtol=1e-7, atol=1e-9), no_noise(1))
+    print(hashlib.sha1(np.ascontiguousarray(tr.z).tobytes() + tr.acc.tobytes()).hexdigest())
+''')
+
+
+def test_a_kernel_loaded_from_the_cache_computes_what_its_compiling_process_did(tmp_path):
+    """The same run, bit for bit, in the process that compiled its kernel and in a later
+    one that loads it from numba's cache (Sanfelice & Praly (20), DOP853, 20 s). A step
+    helper compiled as a function of its own was linked into the kernel and also loaded
+    apart: the compiling process ran the separate copy, a loading process the kernel's
+    own, optimised in another context (last bits, then the adaptive steps, apart)."""
+    env = {**os.environ, "HGO_CACHE_DIR": str(tmp_path / "kernels"),
+           "NUMBA_CACHE_DIR": str(tmp_path / "numba")}
+    runs = [subprocess.run([sys.executable, "-c", TRAJECTORY_HASH], env=env, check=True,
+                           capture_output=True, text=True, timeout=600).stdout.split()[-1]
+            for _ in range(2)]
+    assert runs[0] == runs[1]

@@ -576,7 +576,7 @@ def _decorators(compiled: bool) -> dict[str, object]:
     opts = {"cache": True, "error_model": "numpy", "fastmath": set(FASTMATH), "nogil": True}
     # Inlined helpers are never called from Python: they skip the CPython wrapper numba
     # would otherwise compile through LLVM too (measured: ~15 % of a fresh compile of
-    # problem B). ``jit`` functions keep theirs: without it _trial ran slower.
+    # problem B). ``jit`` functions keep theirs.
     internal = {**opts, "no_cpython_wrapper": True}
     # components, compiled into each new kernel and never cached on their own: numba's
     # cache key ignores compile options, so an entry written under other options (an
@@ -585,7 +585,12 @@ def _decorators(compiled: bool) -> dict[str, object]:
     component = _noalias(numba.njit(**{**internal, "cache": False}, forceinline=True))
     return {
         "jit": _noalias(numba.njit(**opts)),
-        # small helpers called per output sample: inlined by numba itself
+        # every function a kernel function calls (helpers, the step functions): inlined
+        # into it by LLVM. A callee compiled apart (``jit``) is also linked into its
+        # caller's cached code, optimised there in another context: the compiling process
+        # ran the separate copy, a process loading the cache the caller's own, and runs
+        # of DOP853 moved in their last bits and then their steps with the cache's state
+        # (tests/test_kernel_cache.py). Only the functions Python calls are ``jit``.
         "ijit": _noalias(numba.njit(**internal, forceinline=True)),
         "component_jit": component,
         # the parameter records' builders: they name the components' (uncached) functions

@@ -340,7 +340,7 @@ def integrate(z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol
 # The loop of the embedded Runge–Kutta pairs (dopri5, dop853). The method's constants
 # (N_K stages rows, N_F dense-output rows, FSAL_STAGE, ERR_EXP) and its functions
 # _trial, _dense_prep, _dense_eval come before this section (hgo.engine.tableau).
-@jit
+@ijit
 def _initial_step(t, z, d, m, P, w, k1, k2, zt, rtol, atol, h_max, t_lim):
     """Hairer's starting step (Solving ODEs I, II.4) from f0 = k1; uses 1 evaluation.
 

@@ -98,7 +98,7 @@ def _trial(A: np.ndarray, B: np.ndarray, C: np.ndarray, n_stages: int, norm: Cod
     constants, stages = _stages(A, C, 1, n_stages, "zt", "min(t + c * h, t_lim)")
     consts, sums = _sums("B", B[None, :], "        ")
     return constants + consts + norm[0], [
-        "@jit",
+        "@ijit",
         "def _trial(t, h, z, d, m, P, w, K, zt, rtol, atol, t_lim):",
         '    """One trial step (see hgo.engine.tableau); returns the error norm."""',
         *stages,
@@ -179,7 +179,7 @@ def _dop853() -> Code:
                  "ERR_EXP = -1.0 / 8.0", *c_trial, *c_extra, *c_dense]
     return constants, [
         *trial, "", "",
-        "@jit",
+        "@ijit",
         "def _dense_prep(t, h, z, zt, d, m, P, w, K, F, scratch):",
         '    """Three extra stages, then F_0 = zt - z, F_1 = h K_0 - F_0,'
         ' F_2 = 2 F_0 - h (K_0 + K_12), F_3.. = h D K."""',
