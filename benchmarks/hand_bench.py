@@ -1,6 +1,7 @@
 """hgo against hand-written numba kernels of the same method (issue 24, item 5).
 
     python benchmarks/run.py --only hand          # or: python benchmarks/hand_bench.py
+    python benchmarks/hand_bench.py --outputs     # DHLM, Moreno: outputs against steps
 
 For each problem, hgo's whole in-process call as a user's script makes it (the system or
 experiment built once; then ``simulate(system, solver, noise)`` or
@@ -155,6 +156,29 @@ def case_apa() -> tuple:
     return hgo, hand, diff
 
 
+COARSE_DT = 0.04  # --outputs: the coarse output grid (s) against the presets' 1 ms
+
+
+def outputs_split(reps: int = REPS) -> None:
+    """``--outputs``: DHLM's and Moreno's calls with outputs every 1 ms (the presets) and every
+    ``COARSE_DT``: what the extra outputs cost hgo and the hand kernel, and the ratio left
+    at the coarse grid (the steps)."""
+    print(f"\n## DHLM and Moreno: outputs against steps (CPU ms, medians of {reps} interleaved "
+          f"calls; load average {os.getloadavg()[0]:.2f})\n")
+    print(f"| problem | hgo 1 ms / {COARSE_DT * 1e3:g} ms | hand 1 ms / {COARSE_DT * 1e3:g} ms "
+          "| cost of the extra outputs: hgo / hand | hgo / hand at the coarse grid |")
+    print("|---|---|---|---|---|")
+    for name, overrides, kernel, z0 in (("DHLM", DHLM, dhlm_kernel, DHLM_Z0),
+                                        ("Moreno", MORENO, moreno_kernel, MORENO_Z0)):
+        fine = case_paper(overrides, kernel, z0)
+        coarse = case_paper([*overrides, f"solver.dt_out={COARSE_DT}"], kernel, z0)
+        (g1, _), (h1, _), (g2, _), (h2, _) = interleaved_median_cpu(
+            [fine[0], fine[1], coarse[0], coarse[1]], reps)
+        ms = [1e3 * t for t in (g1, g2, h1, h2)]
+        print(f"| {name} | {ms[0]:.2f} / {ms[1]:.2f} | {ms[2]:.2f} / {ms[3]:.2f} | "
+              f"{ms[0] - ms[1]:.2f} / {ms[2] - ms[3]:.2f} | {g2 / h2:.2f} |")
+
+
 def member_build_ms(n: int = GRID_N) -> tuple[float, int]:
     """CPU ms per member of preparing the ``n`` x ``n`` grid ensemble (median of 3)."""
     from sweeps_bench import sp_grid_override
@@ -199,4 +223,7 @@ def bench(quick: bool = False) -> dict:
 
 if __name__ == "__main__":
     t0 = time.perf_counter()
-    bench("--quick" in sys.argv)
+    if "--outputs" in sys.argv:
+        outputs_split()
+    else:
+        bench("--quick" in sys.argv)

@@ -45,5 +45,5 @@ def table(title: str, header: list[str], rows: list[list]) -> None:
 
 def interleaved_median_cpu(fns: list, reps: int) -> list[tuple[float, object]]:
     """As :func:`interleaved_median_times`, in CPU seconds of the process (every thread:
-    hgo integrates in a worker thread), robust against other processes on a shared machine."""
+    the kernel, the Ctrl-C watcher), robust against other processes on a shared machine."""
     return interleaved_median_times(fns, reps, clock=time.process_time)
