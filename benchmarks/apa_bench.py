@@ -22,8 +22,9 @@ gives solve_ivp the split hgo uses (one RK45 integration per observer with its o
 the plant, times summed, the same rtol search), so that the ratio is not only the split's.
 
 Measured (2026-11-25, 2 cores, load 4-5, two runs): hgo 0.055 / 0.054 s CPU, error 1.5e-4 /
-1.6e-4 (the df2max observer's x^2: round-off differences between compilations of the kernel,
-amplified by its kinks' step rejections); RK45 needs rtol 1e-9 (at 1e-8 the plant states,
+1.6e-4 (the df2max observer's x^2: round-off differences, then a kernel compiled in the
+process and one loaded from the cache computed differently (fixed in a624e71), amplified by its
+kinks' step rejections); RK45 needs rtol 1e-9 (at 1e-8 the plant states,
 1.7e-8 against hgo's 5e-9 to 1e-8, and x^2 of the Omega1 observer, 8.1e-7 against 7.2e-7,
 are less accurate): 33.4 / 32.7 s CPU, error 7.2e-6; 605x / 610x CPU, 466x / 409x wall.
 A third run (load 2-3): hgo 0.057 s CPU, error 1.6e-4; RK45 rtol 1e-9

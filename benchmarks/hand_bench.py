@@ -17,8 +17,9 @@ process (all its threads), medians of interleaved calls (``REPS``).
 * APA: ``experiment=apa_fig2`` (T = 50, noise held 0.01, three observers integrated apart),
   DOP853 rtol 1e-8, against ``hand_papers.apa_kernel`` (one per observer). The df2max
   observer's x^2 crosses its saturation bounds ~2.3 times per noise sample; its steps
-  there depend on round-off, so its x^2 differs by up to ~1e-5 (two compilations of hgo's
-  own kernel differ by as much, ``apa_bench.py``); every other state to ~1e-8;
+  there depend on round-off, so its x^2 differs by up to ~1e-5 (the same arithmetic in
+  another order; before a624e71 hgo's own kernel differed as much between the process that
+  compiled it and one loading it from the cache); every other state to ~1e-8;
 * DHLM: ``experiment=dhlm_example``, DOP853 rtol 1e-10, against ``hand_papers.dhlm_kernel``;
 * Moreno: ``experiment=moreno_pe`` (x2 = 2 sin t, a = 0.5, l2 = 120), DOP853 rtol 1e-10,
   against ``hand_papers.moreno_kernel``.
