@@ -590,7 +590,9 @@ def _decorators(compiled: bool) -> dict[str, object]:
         # caller's cached code, optimised there in another context: the compiling process
         # ran the separate copy, a process loading the cache the caller's own, and runs
         # of DOP853 moved in their last bits and then their steps with the cache's state
-        # (tests/test_kernel_cache.py). Only the functions Python calls are ``jit``.
+        # (tests/test_kernel_cache.py). ``jit``: the functions Python calls (integrate,
+        # dense_signals); integrate_ensemble calls integrate too, and its members equal
+        # single runs bit for bit (checked for B, apa_fig2, moreno_fig1, dhlm_example).
         "ijit": _noalias(numba.njit(**internal, forceinline=True)),
         "component_jit": component,
         # the parameter records' builders: they name the components' (uncached) functions

@@ -1,7 +1,8 @@
 """Integrators of the composed system; this file is *source text* for generated kernels.
 
-:mod:`hgo.engine.codegen` prepends a header that defines ``jit``, ``ijit`` (inlined, not
-callable from Python), ``pjit``, ``prange``,
+:mod:`hgo.engine.codegen` prepends a header that defines ``jit`` (the functions Python
+calls), ``ijit`` (inlined into their caller, not callable from Python: every other
+function here), ``pjit``, ``prange``,
 ``view``, the layout constants and the composed functions ``system_rhs``,
 ``system_update``, ``system_outputs`` and ``system_stiffness``, then appends the section
 ``common`` and the section of the one integrator the run asks for (``rk4``, or
