@@ -6,7 +6,8 @@
   medians of ``--reps`` whole processes (wall clock; the run's kernel is compiled first);
 * ``hgo.outputs.runs.load`` over 1,000 run directories (target < 2 s), median of 3;
 * ``--presets``: a cached ``hgo run`` of every paper preset that draws figures (one run,
-  not a sweep; target < 1.5 s each, issue 27), one line each with the load average.
+  not a sweep; target < 1.5 s each, issue 27), one line each with the load average and
+  the last run's own seconds from its ``run.json`` (the rest is imports, Hydra, exit).
 
 The last line is ``startup: help=<s> run=<s> index_1000=<s>``.
 """
@@ -14,6 +15,7 @@ The last line is ``startup: help=<s> run=<s> index_1000=<s>``.
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import shutil
 import statistics
@@ -75,8 +77,10 @@ def preset_times(reps: int) -> None:
             subprocess.run([*HGO.split(), *run], cwd=cwd, check=True, capture_output=True)
             t = whole_process(run, cwd, reps)
             load1 = os.getloadavg()[0]
+            parts = json.loads((cwd / preset / "run.json").read_text())["seconds"]
+            inside = ", ".join(f"{k} {v:.2f}" for k, v in parts.items())
             print(f"cached hgo run experiment={preset}: {t:.2f} s (target 1.5), "
-                  f"load {load1:.1f}", flush=True)
+                  f"load {load1:.1f}; last run's run.json: {inside} s", flush=True)
 
 
 def main() -> None:

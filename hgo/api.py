@@ -39,8 +39,10 @@ class Result:
             (``/plant/x/x1``, ``/observer/<name>/xhat/x1_hat``, ``/error/<name>/e_x1``).
         status: ``"ok"``, or ``"failed: <why>"`` / ``"interrupted: <why>"`` for a run that
             stopped early (its signals end there, its metrics are NaN).
-        timings: seconds: ``compile`` (numba, new kernels only), ``simulate``, ``write``
-            (only with an ``out_dir``).
+        timings: seconds: ``compile`` (numba, new kernels only), ``simulate``,
+            ``postprocess`` (post-processors and metrics); with an ``out_dir`` also
+            ``write`` (the recording) and ``figures`` (drawing them, or waiting for the
+            process that draws them while the recording is written).
         out_dir: the run directory, or None when nothing was written.
     """
 
@@ -137,7 +139,7 @@ def _in_memory(cfg: DictConfig) -> Result:
     traj = mem.trajectory
     series = signals(mem.experiment.system, traj) + mem.post.series
     return Result(cfg, mem.metrics, signals_frame(traj.t, series), _status(traj),
-                  {"compile": mem.compile_seconds, "simulate": mem.simulate_seconds})
+                  mem.timings)
 
 
 def _hydra_files(cfg: DictConfig, out_dir: Path) -> None:

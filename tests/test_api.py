@@ -47,8 +47,8 @@ def test_run_in_memory_names_signals_as_the_recording_does(tmp_path):
     np.testing.assert_allclose(recording[memory.signals.columns].to_numpy(),
                                memory.signals.to_numpy(), rtol=0, atol=0)
     pd.testing.assert_frame_equal(memory.metrics, written.metrics)
-    assert set(memory.timings) == {"compile", "simulate"}
-    assert set(written.timings) == {"compile", "simulate", "write"}
+    assert set(memory.timings) == {"compile", "simulate", "postprocess"}
+    assert set(written.timings) == {"compile", "simulate", "postprocess", "write", "figures"}
 
 
 def test_run_with_out_dir_writes_what_hgo_run_writes(tmp_path):

@@ -47,7 +47,7 @@ def test_single_run_prints_its_directory_and_latest_is_the_newest(workdir):
     info = json.loads((run_dir / "run.json").read_text())
     assert info["status"] == "ok" and info["seed"] == 0 and info["hgo"] == "0.1.0"
     assert {"numpy", "numba", "rerun-sdk", "hydra-core", "python"} <= set(info)
-    assert set(info["seconds"]) == {"compile", "simulate", "write"}
+    assert set(info["seconds"]) == {"compile", "simulate", "postprocess", "write", "figures"}
     assert info["config"]["observer.sign_indefinite.p2"] == 0.008
 
 

@@ -376,6 +376,13 @@ class MemoryRun:
     metrics: pd.DataFrame
     simulate_seconds: float  # without compiling
     compile_seconds: float  # numba compiling a kernel not in the cache (0 when cached)
+    postprocess_seconds: float = 0.0  # the post-processors and the metrics table
+
+    @property
+    def timings(self) -> dict[str, float]:
+        """Seconds: ``compile``, ``simulate``, ``postprocess``."""
+        return {"compile": self.compile_seconds, "simulate": self.simulate_seconds,
+                "postprocess": self.postprocess_seconds}
 
 
 def simulate_config(cfg: DictConfig) -> MemoryRun:
@@ -384,11 +391,13 @@ def simulate_config(cfg: DictConfig) -> MemoryRun:
     log.info("integrating t = 0 .. %g s (%s)", exp.solver.t_end, exp.solver.method)
     with run_seconds() as seconds, compile_progress(exp.solver.method):
         traj = run_experiment(exp)
+    t0 = time.perf_counter()
     post = postprocess(cfg, exp, traj) if traj.ok else PostOutput()
     table = metrics_table(exp.system, traj.acc, traj.status, traj.t_stop, post.bounds,
                           post.rows, vacuous_factor(cfg))
     table.insert(0, "run", cfg.get("run_name", "run"))
-    return MemoryRun(exp, traj, post, table, seconds["simulate"], seconds["compile"])
+    return MemoryRun(exp, traj, post, table, seconds["simulate"], seconds["compile"],
+                     time.perf_counter() - t0)
 
 
 def status_text(traj: Trajectory) -> str:
@@ -412,8 +421,7 @@ def run(cfg: DictConfig, out_dir: str | Path, figures: FigureWorker | None = Non
     out_dir.mkdir(parents=True, exist_ok=True)
     exp, traj, table = mem.experiment, mem.trajectory, mem.metrics
     series = signals(exp.system, traj) + mem.post.series
-    result = RunResult(exp, traj, table, out_dir, series, {
-        "compile": mem.compile_seconds, "simulate": mem.simulate_seconds})
+    result = RunResult(exp, traj, table, out_dir, series, mem.timings)
     if figures is not None and traj.ok:
         figures.submit(result)
     t1 = time.perf_counter()
@@ -423,8 +431,9 @@ def run(cfg: DictConfig, out_dir: str | Path, figures: FigureWorker | None = Non
                         text={"/run/status": status_text(traj),
                               "/run/config": job_config_yaml(cfg)})
     result.timings["write"] = t_write = time.perf_counter() - t1
-    log.info("simulated in %.3f s (compiling %.3f s); recording of %d samples x %d columns "
-             "written in %.3f s", mem.simulate_seconds, mem.compile_seconds, len(traj.t),
+    log.info("simulated in %.3f s (compiling %.3f s), post-processed in %.3f s; recording of "
+             "%d samples x %d columns written in %.3f s", mem.simulate_seconds,
+             mem.compile_seconds, mem.postprocess_seconds, len(traj.t),
              sum(len(s.names) for s in series), t_write)
     with atomic_output(out_dir / "metrics.csv") as partial:
         table.to_csv(partial, index=False)
@@ -437,10 +446,13 @@ def run(cfg: DictConfig, out_dir: str | Path, figures: FigureWorker | None = Non
         err = (RunInterrupted if traj.status == INTERRUPTED else SimulationFailed)(stopped)
         err.result = result  # what was written, for hgo.api.run
         raise err
+    t2 = time.perf_counter()
     if figures is not None:
         figures.collect()
     else:
         draw_figures(cfg, result)
+    # drawn in the figure process while the recording was written: the time waited here
+    result.timings["figures"] = time.perf_counter() - t2
     track(cfg, out_dir, started, "ok", result.timings, table)
     return result
 
