@@ -451,7 +451,8 @@ def run(cfg: DictConfig, out_dir: str | Path, figures: FigureWorker | None = Non
         figures.collect()
     else:
         draw_figures(cfg, result)
-    # drawn in the figure process while the recording was written: the time waited here
+    # the drawing, or with a figure process (it drew while the recording was written) the
+    # time this run still waited for it
     result.timings["figures"] = time.perf_counter() - t2
     track(cfg, out_dir, started, "ok", result.timings, table)
     return result
