@@ -31,6 +31,10 @@ RUN_AND_REPORT = textwrap.dedent('''
 
 FIGURES = textwrap.dedent('''
     import os
+    from pathlib import Path
+
+    def pid(result, path):
+        Path(path).write_text(str(os.getpid()))
 
     def fails(result, path):
         raise ValueError("this figure cannot be drawn")
@@ -60,6 +64,22 @@ def test_forked_figure_is_the_in_process_one_and_the_run_never_imports_matplotli
     run(compose(SHORT, in_process), in_process)
     assert (forked / "fig1.png").read_bytes() == (in_process / "fig1.png").read_bytes()
     assert (forked / "run.json").is_file() and (forked / ".hgo_done").is_file()
+
+
+def test_several_figures_are_drawn_by_two_processes_as_by_one(tmp_path):
+    """sp_fig1 over 6 s with four figures (fig1, the same figure again as fig1b, two that
+    write their process id): every other one is drawn by a fork of the figure process,
+    so the two id figures name two processes; fig1b.png, drawn in the fork, equals
+    fig1.png, drawn in the figure process, byte for byte; the run is complete."""
+    out = tmp_path / "run"
+    proc = hgo_run(tmp_path, *SHORT, f"hydra.run.dir={out}",
+                   "+figures.fig1b._target_=hgo.papers.sanfelice_praly.figures.fig1",
+                   "+figures.pid_a._target_=user_figures.pid",
+                   "+figures.pid_b._target_=user_figures.pid")
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert (out / "pid_a.png").read_text() != (out / "pid_b.png").read_text()
+    assert (out / "fig1b.png").read_bytes() == (out / "fig1.png").read_bytes()
+    assert (out / ".hgo_done").is_file()
 
 
 @pytest.mark.parametrize("figure, code, line", [

@@ -84,10 +84,11 @@ def check_figures(cfg: DictConfig) -> None:
                                   f"{node['_target_']}", ", ".join(params[2:]) or "none")
 
 
-def draw_figures(cfg: DictConfig, result: RunResult) -> list[Path]:
+def draw_figures(cfg: DictConfig, result: RunResult,
+                 names: list[str] | None = None) -> list[Path]:
     """Figures of the ``figures`` mapping (name -> ``_target_`` taking the result and a
-    path), written as ``<name>.<figures.format>`` at ``figures.dpi`` (and also as
-    ``<name>.<figures.vector>`` when set)."""
+    path; ``names``: only those), written as ``<name>.<figures.format>`` at ``figures.dpi``
+    (and also as ``<name>.<figures.vector>`` when set)."""
     import matplotlib.pyplot as plt
 
     from hgo.outputs.figures import also_saved_as  # (and hgo's style, the Agg backend)
@@ -99,6 +100,8 @@ def draw_figures(cfg: DictConfig, result: RunResult) -> list[Path]:
     result = dataclasses.replace(result, series=materialized(result.series))
     paths = []
     for name, node in figure_nodes(cfg).items():
+        if names is not None and name not in names:
+            continue
         path = result.out_dir / f"{name}.{fmt}"
         with plt.rc_context({"savefig.dpi": dpi, "figure.dpi": dpi}), also_saved_as(vector):
             instantiate(node, _partial_=True)(result, path)  # (rc: see figures.STYLE)
