@@ -194,10 +194,10 @@ def _draw_on_two_cores(cfg: DictConfig, result: Any) -> list[Path]:
     try:
         status, value = _reply_of(lambda: draw_figures(cfg, result, mine))
     finally:
-        data = _read_all(read_fd)
+        data = _read_all(read_fd)  # (EOF: the fork has replied or died)
         os.close(read_fd)
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)  # (before the fork is reaped)
         code = os.waitstatus_to_exitcode(os.waitpid(pid, 0)[1])
-        signal.signal(signal.SIGTERM, signal.SIG_DFL)
     if not data:
         os._exit(code if code > 0 else 1)
     if status == "error":
