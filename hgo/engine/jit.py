@@ -26,7 +26,7 @@ from pathlib import Path
 import numba
 import numpy as np
 from numba.core import types
-from numba.extending import intrinsic, register_jitable
+from numba.extending import intrinsic, overload, register_jitable
 from numba.np import arrayobj
 
 kernel_helper = numba.njit(cache=True, error_model="numpy")
@@ -160,6 +160,22 @@ def _stack_array(typingctx, size):
         return out._getvalue()
 
     return ret(size), codegen
+
+
+def matrix_view(a, start, rows, cols):
+    """``a[start:start + rows * cols]`` as a (rows, cols) matrix sharing ``a``'s memory, for
+    a component's scratch space (``p.scratch``). In a kernel it is a borrowed view: numba's
+    ``reshape`` calls a C function on every evaluation, which LLVM cannot see through (it
+    then assumes any memory may have changed: no common subexpressions across it)."""
+    return a[start:start + rows * cols].reshape(rows, cols)
+
+
+@overload(matrix_view, jit_options={"error_model": "numpy"})
+def _matrix_view_kernel(a, start, rows, cols):
+    def impl(a, start, rows, cols):
+        return _borrowed_view2(a, start, rows, cols)
+
+    return impl
 
 
 def _py_stack_array(size):

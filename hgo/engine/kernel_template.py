@@ -4,8 +4,8 @@
 calls), ``ijit`` (inlined into their caller, not callable from Python: every other
 function here), ``pjit``, ``prange``,
 ``view``, the layout constants and the composed functions ``system_rhs``,
-``system_update``, ``system_outputs`` and ``system_stiffness``, then appends the section
-``common`` and the section of the one integrator the run asks for (``rk4``, or
+``system_update``, ``system_outputs``, ``system_errors`` and ``system_stiffness``, then
+appends the section ``common`` and the section of the one integrator the run asks for (``rk4``, or
 ``adaptive`` for ``dopri5``/``dop853``): only that integrator is compiled. The result is
 compiled with numba (or run as plain Python when a user component cannot be compiled).
 Never imported on its own.
@@ -205,10 +205,10 @@ def _trapezoid(t, sq, prev, acc, win):
 
 
 @ijit
-def _step_end(t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, t_win0, tol):
+def _step_end(t, z, d, m, P, w, y, xh, sq, prev, acc, win, t_win0, tol):
     """An RK4 step ends at t: a point of the window metrics (inside the window only)."""
     if t >= t_win0 - tol:
-        system_outputs(t, z, d, m, P, w, y, u, xh)
+        system_errors(t, z, d, m, P, w, y, xh)
         _point_errors(z, y, xh, sq, acc)
         _trapezoid(t, sq, prev, acc, win)
 
@@ -316,7 +316,7 @@ def integrate(z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol
                 status = _state_status(z, bound)
                 if status != 0:
                     return status, k_out, t
-                _step_end(t, z, d, m, P, w, y, u, xh, sq, prev, acc, win, t_win0, tol)
+                _step_end(t, z, d, m, P, w, y, xh, sq, prev, acc, win, t_win0, tol)
                 n_steps += 1
                 if n_steps > max_steps:
                     return 5, k_out, t
@@ -423,7 +423,7 @@ GAUSS_WEIGHTS = np.array([5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0])
 
 
 @ijit
-def _window_step(t, h, a, b, z, d, m, P, w, y, u, xh, sq, acc, F, zo):
+def _window_step(t, h, a, b, z, d, m, P, w, y, xh, sq, acc, F, zo):
     """The accepted step [t, t + h] on its part [a, b] inside the metrics window: the
     squared errors integrated by 3-point Gauss-Legendre on the step's continuous extension
     (``F``; its order is the method's), their maxima at the nodes, the length ``b - a``.
@@ -431,7 +431,7 @@ def _window_step(t, h, a, b, z, d, m, P, w, y, u, xh, sq, acc, F, zo):
     for q in range(3):
         tq = a + (b - a) * GAUSS_NODES[q]
         _dense_eval((tq - t) / h, z, F, zo)
-        system_outputs(tq, zo, d, m, P, w, y, u, xh)
+        system_errors(tq, zo, d, m, P, w, y, xh)
         _point_errors(zo, y, xh, sq, acc)
         for j in range(NXH + NOBS):
             acc[j] += (b - a) * GAUSS_WEIGHTS[q] * sq[j]
@@ -517,7 +517,7 @@ def integrate(z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol
             if t_new > t_win0 + tol:  # the step overlaps the metrics window
                 _dense_prep(t, hh, z, zt, d, m, P, w, K, F, zo)
                 prepared = True
-                _window_step(t, hh, max(t, t_win0), t_new, z, d, m, P, w, y, u, xh, sq, acc,
+                _window_step(t, hh, max(t, t_win0), t_new, z, d, m, P, w, y, xh, sq, acc,
                              F, zo)
             # outputs inside the step, at their instants (the continuous extension); those
             # within tol of the event that ends the segment are taken after the event
@@ -549,7 +549,7 @@ def integrate(z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol
             if status != 0:
                 return status, k_out, t
             if t >= t_win0 - tol:  # the step end (after its update) for the maximum norm
-                system_outputs(t, z, d, m, P, w, y, u, xh)
+                system_errors(t, z, d, m, P, w, y, xh)
                 _point_errors(z, y, xh, sq, acc)
             fac = 10.0 if err == 0.0 else min(10.0, max(0.2, 0.9 * err ** ERR_EXP))
             if retried:  # as scipy: no growth right after a rejection (B: 4 % fewer trials)

@@ -179,6 +179,7 @@ class StepRecord:
     method: str
     P: np.ndarray
     rows: np.ndarray
+    noisy: bool = True  # the run's kernel: with measurement noise, or the noiseless one
 
     def at(self, ts: np.ndarray) -> Trajectory:
         """Every signal at the instants ``ts`` (in [0, t_stop])."""
@@ -187,7 +188,8 @@ class StepRecord:
         sysm = self.system
         t, *rec = _record_arrays(len(ts), (1, sysm.nz, sysm.nd, ny, ny, nu, sysm.nxh))
         if "_signals" not in self.__dict__:  # (loaded once: at() is called many times)
-            self._signals = _first_compiled(_kernel(sysm, self.method), "dense_signals")
+            self._signals = _first_compiled(_kernel(sysm, self.method, self.noisy),
+                                            "dense_signals")
         self._signals(self.rows, len(self.rows), ts, self.P, *rec)
         return Trajectory(ts, *rec, 0, float(ts[-1]) if len(ts) else 0.0,
                           np.full(sysm.n_acc(), np.nan))
@@ -226,29 +228,36 @@ class DenseRun:
         return np.unique(np.concatenate([[a, b], *inner]))
 
 
-def _kernel(system: System, method: str):
+def _kernel(system: System, method: str, noisy: bool = True):
     """The compiled kernel module, or the pure-Python one (numba missing)."""
     try:
-        return load_kernel(system, compiled=True, method=method)
+        return load_kernel(system, compiled=True, method=method, noisy=noisy)
     except ImportError:  # numba missing
-        return load_kernel(system, compiled=False, method=method)
+        return load_kernel(system, compiled=False, method=method, noisy=noisy)
 
 
-def _call(system: System, method: str, fname: str, *args):
-    module = _kernel(system, method)
+def has_noise(samples: np.ndarray) -> bool:
+    """Whether any measurement noise sample is non-zero (else the noiseless kernel runs:
+    :func:`hgo.engine.codegen.kernel_source`)."""
+    return bool(np.any(samples))
+
+
+def _call(system: System, method: str, fname: str, *args, noisy: bool = True):
+    module = _kernel(system, method, noisy)
     try:
-        return _call_repairing_cache(system, method, module, fname, args)
+        return _call_repairing_cache(system, method, noisy, module, fname, args)
     except Exception as err:  # numba typing/lowering errors of user components
         if type(err).__module__.split(".")[0] != "numba":
             raise
         first = _reason(str(err))
         warnings.warn(f"hgo: numba could not compile this system ({first}); running on the "
                       "pure-Python path (slow).", RuntimeWarning, stacklevel=3)
-        module = load_kernel(system, compiled=False, method=method)
+        module = load_kernel(system, compiled=False, method=method, noisy=noisy)
         return interruptible(getattr(module, fname), args, args[-1])
 
 
-def _call_repairing_cache(system: System, method: str, module, fname: str, args: tuple):
+def _call_repairing_cache(system: System, method: str, noisy: bool, module, fname: str,
+                          args: tuple):
     """Call the kernel; a damaged numba cache file (truncated, corrupted) is deleted, with
     one warning, and the kernel recompiled, until the call goes through."""
     warned = False
@@ -266,7 +275,7 @@ def _call_repairing_cache(system: System, method: str, module, fname: str, args:
                 warned = True
             remove_cache_entry(damaged)
             forget_kernel(module)
-            module = _kernel(system, method)
+            module = _kernel(system, method, noisy)
     return interruptible(_first_compiled(module, fname), args, args[-1])
 
 
@@ -347,6 +356,7 @@ def simulate(system: System, solver: SolverSettings, noise: Noise,
     breaks = system.breaks(P, solver.t_end)
     keep = solver.dense_steps and solver.method != "rk4"
     cap = _steps_guess(solver, noise) if keep else 0
+    noisy = has_noise(noise.samples)
     while True:  # (once, unless the step record was too short: then again, long enough)
         steps, ctl = np.empty((cap, _step_width(system, solver.method) if keep else 0)), \
             _control(solver)
@@ -354,14 +364,14 @@ def simulate(system: System, solver: SolverSettings, noise: Noise,
         status, n_rec, t_stop = _call(
             system, solver.method, "integrate", z.copy(), system.d0(), P,
             np.ascontiguousarray(noise.samples, float), args[0], breaks, *args[1:], *rec, acc,
-            steps, ctl)
+            steps, ctl, noisy=noisy)
         if ctl[2] <= cap:
             break
         cap = int(ctl[2])
     t = t[:n_rec, 0]
     t[:] = np.arange(n_rec) * solver.dt_out
     Z, D, Y, M, U, XH = (a[:n_rec] for a in rec)
-    dense = DenseRun(system, [StepRecord(system, solver.method, P, steps[:ctl[2]])]) \
+    dense = DenseRun(system, [StepRecord(system, solver.method, P, steps[:ctl[2]], noisy)]) \
         if keep else None
     return Trajectory(t, Z, D, Y, M, U, XH, int(status), float(t_stop), acc, dense)
 
@@ -527,7 +537,7 @@ def simulate_ensemble(system: System, solver: SolverSettings, noise: list[Noise]
     recs = [np.zeros((n, n_out, k)) for k in (system.nz, system.nd, ny, ny, nu, system.nxh)]
     _call(system, solver.method, "integrate_ensemble", z0, d0, params, samples, args[0],
           member_breaks(system, params, solver.t_end), *args[1:], acc, status, t_stop, n_rec,
-          *recs, NO_STEPS, _control(solver))
+          *recs, NO_STEPS, _control(solver), noisy=has_noise(samples))
     out = {"acc": acc, "status": status, "t_stop": t_stop}
     if record:
         t = np.arange(n_out) * solver.dt_out

@@ -43,9 +43,10 @@ first-same-as-last evaluation is kept on every other step.)
 Parameters (by name): constants n, N (entries of z), m, q, r (inputs), n_y (outputs), the
 flags psi_at_y, omega_law, ideal, the functions phi (or None: phi = 0) and psi, and per
 entry k of z: out (its output), first (the index of its block's z_hi1), last (its block's
-last entry), direct (q_i = 1); values eps, delta, sigma, sigma2, K_phi, K_psi, A (n x n),
-B (n x m), E (n x r), H (N x n), L (n x N), M (m x N), C (n_y x n), Cp (n x n_y: C^+),
-Bz2 (N x r: b_i2 rows), Gamma (N), S (N).
+last entry), direct (q_i = 1), and selects (C selects coordinates) with measured (per
+state, the output that measures it, or -1); values eps, delta, sigma, sigma2, K_phi,
+K_psi, A (n x n), B (n x m), E (n x r), H (N x n), L (n x N), M (m x N), C (n_y x n),
+Cp (n x n_y: C^+), Bz2 (N x r: b_i2 rows), Gamma (N), S (N).
 """
 
 from __future__ import annotations
@@ -56,7 +57,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from hgo.core.components import Observer, Params, user_function
-from hgo.engine.jit import record_helper
+from hgo.engine.jit import matrix_view, record_helper
 from hgo.plants.robot_arm import dimassi_psi
 
 
@@ -104,8 +105,12 @@ def _miswired(y, u, p):
 @record_helper
 def _argument(xh, y, p, xa):
     """The point where phi, psi are evaluated, into xa: x^ + C^+ (y - C x^) (psi_at_y), i.e.
-    x^ with its measured coordinates replaced by y, or x^."""
+    x^ with its measured coordinates replaced by y, or x^. When C selects coordinates
+    (``selects``), the replacement is exact: y itself, not x^ + (y - x^)."""
     for i in range(p.n):
+        if p.psi_at_y and p.selects:
+            xa[i] = y[p.measured[i]] if p.measured[i] >= 0 else xh[i]
+            continue
         v = xh[i]
         if p.psi_at_y:
             for o in range(p.n_y):
@@ -145,27 +150,27 @@ def f(t, z, d, y, u, p, dz):
         for j in range(p.r):
             v += p.E[i, j] * u[j]
         dz[nn + i] = v
+    # scratch space (no heap): [x^a (n) | phi (m) | psi (m x q) | z_h^s - H x^ (N)]
+    work = p.scratch
+    inn = work[n + m + m * q:n + m + m * q + nn]  # each entry once: (5) and (7) read it
     for k in range(nn):
-        inn = innovation(k, zh, xh, y, p)
+        inn[k] = innovation(k, zh, xh, y, p)
         for i in range(n):
-            dz[nn + i] += p.L[i, k] * inn
+            dz[nn + i] += p.L[i, k] * inn[k]
     for k in range(q):  # (7): th^' = delta psi^T M (z_h^s - H x^) - sigma th^
         dz[nn + n + k] = -p.sigma * th[k]
-    # phi(x^a, u) and psi(x^a, u), evaluated once into the scratch space (no heap):
-    # [x^a (n) | phi (m) | psi (m x q)]
-    work = p.scratch
-    xa = work[:n]
+    xa = work[:n]  # phi(x^a, u) and psi(x^a, u), evaluated once
     _argument(xh, y, p, xa)
     phi = work[n:n + m]
     if p.has_phi:
         p.phi(xa, u, phi)
-    psi = work[n + m:n + m + m * q].reshape((m, q))
+    psi = matrix_view(work, n + m, m, q)
     p.psi(xa, u, psi)
     mi_sq = 0.0
     for j in range(m):  # row j of M (z_h^s - H x^) and of psi: (5) + B g, (7), (11)
         mi = 0.0
         for k in range(nn):
-            mi += p.M[j, k] * innovation(k, zh, xh, y, p)
+            mi += p.M[j, k] * inn[k]
         mi_sq += mi * mi
         g = phi[j] if p.has_phi else 0.0
         if p.omega_law:
@@ -347,7 +352,8 @@ def adaptive_cascade(name: str, A: Sequence, B: Sequence, C: Sequence, E: Sequen
                 "ideal": hgo == "ideal", "has_phi": phi is not None,
                 "phi": zero_phi if phi is None else phi, "psi": psi,
                 "out": out, "first": first, "last": [bool(v) for v in last],
-                "direct": [bool(v) for v in direct], "scratch": n + m + m * nq},
+                "direct": [bool(v) for v in direct], **_measured(C),
+                "scratch": n + m + m * nq + nn},
                eps=eps, delta=delta, sigma=sigma, sigma2=sigma2, K_phi=K_phi, K_psi=K_psi,
                A=A, B=B, E=E, H=H, L=L, M=M, C=C, Cp=np.linalg.pinv(C),
                Bz2=np.asarray(bz2).reshape(nn, r), Gamma=gains, S=S)
@@ -365,6 +371,18 @@ def adaptive_cascade(name: str, A: Sequence, B: Sequence, C: Sequence, E: Sequen
         d0=np.array([-1.0, -1.0]), p=p, f=f,
         estimate=estimate, update=update, spectral_radius=rho,
         signals={"theta_hat": list(range(nn + n, nn + n + nq)), "omega_hat": [nn + n + nq]})
+
+
+def _measured(C: np.ndarray) -> dict:
+    """``selects``: whether every row of C is a unit vector e_i, with distinct i (y_o
+    measures x_i); ``measured``: per state, the output that measures it, or -1."""
+    rows = [np.flatnonzero(row) for row in C]
+    units = [int(r[0]) for o, r in enumerate(rows) if r.size == 1 and C[o, r[0]] == 1.0]
+    selects = len(units) == len(rows) and len(set(units)) == len(units)
+    measured = [-1] * C.shape[1]
+    for o, i in enumerate(units if selects else []):
+        measured[i] = o
+    return {"selects": selects, "measured": measured}
 
 
 def _model(key: str, model: str | None, B, phi, psi, n_theta, K_phi, K_psi) -> tuple:
