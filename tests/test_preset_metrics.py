@@ -29,27 +29,28 @@ import pytest
 STORED = json.loads(pm.STORE.read_text())["cases"]
 SLOW = {"sp_ensemble"}  # 1000 members over 200 s: 18 s alone; left to --check
 #: case -> what moved with the fused multiply-adds against main at ea54a97: rows beyond
-#: 1e-9 relative / stored rows, and the largest relative difference (measured at a624e71,
-#: load ~1; since that commit a kernel compiled in the process and one loaded from numba's
-#: cache give the same bits, tests/test_kernel_cache.py).
+#: 1e-9 relative / stored rows, and the largest relative difference (measured with the
+#: noiseless kernels and the cascade observer's exact psi argument, 2026-11-27; since
+#: a624e71 a kernel compiled in the process and one loaded from numba's cache give the same
+#: bits, tests/test_kernel_cache.py).
 #: The largest are threshold functionals (first time below 0.01, the largest rise of
 #: varrho above alpha1) and round-off-floor values, which a last-bit change may move far.
 ROUNDING = {
-    **{name: "18/92 rows, max 0.17 (df2max t1_0.01: a threshold-crossing time)" for name in
+    **{name: "18/92 rows, max 0.14 (df2max t1_0.01: a threshold-crossing time)" for name in
        ("apa_fig1", "apa_fig2", "apa_readings", "apa_seeds")},
-    "apa_model": "13/92 rows, max 2.6e-7 (df2max share_sat_low)",
+    "apa_model": "12/92 rows, max 2.6e-7 (df2max share_sat_low)",
     "apa_noise": "18/92 rows, max 0.5 (df2max t1_0.1)",
-    "apa_nominal": "50/92 rows, max 2.1 (omega1 bias_w3: a round-off-floor value of a "
+    "apa_nominal": "50/92 rows, max 1.3 (omega1 bias_w4: a round-off-floor value of a "
                    "noise-free run)",
-    "apa_readings_linear": "18/92 rows, max 0.26 (df2max t1_0.01)",
+    "apa_readings_linear": "18/92 rows, max 0.21 (df2max t1_0.01)",
     **{name: "29/74 rows, max 2.9e-3 (t_sat_last, a step-end time)" for name in
        ("dhlm_delta", "dhlm_eps", "dhlm_example", "dhlm_sigma")},
     "dhlm_psi_at_xhat": "15/74 rows, max 3.3e-4 (t_sat_last)",
-    "dhlm_omega_law": "13/74 rows, max 2.0e-4 (t_sat_last)",
-    "moreno_fig1": "6/34 rows, max 0.071 (gamma, the largest rise above alpha1)",
-    "moreno_sector": "6/126 rows, max 1.5 (gamma)",
+    "dhlm_omega_law": "12/74 rows, max 2.0e-4 (t_sat_last)",
+    "moreno_fig1": "6/34 rows, max 0.067 (gamma, the largest rise above alpha1)",
+    "moreno_sector": "6/126 rows, max 0.6 (gamma)",
     "moreno_pe": "2/34 rows, max 0.015 (norm_e_t10 ~1e-13: round-off floor)",
-    "moreno_sin": "7/34 rows, max 1.0e-3 (norm_e_t10 ~1e-12)",
+    "moreno_sin": "5/34 rows, max 2.0e-4 (norm_e_t10 ~1e-12)",
 }
 QUICK = [pytest.param(name, marks=pytest.mark.xfail(
              strict=True, reason=f"fused multiply-adds in another pattern: {ROUNDING[name]}"))
@@ -73,8 +74,11 @@ def test_port_is_exact_without_fused_multiply_adds(tmp_path):
     """Compiled without fast-math flags, the ported observers (cascade, homogeneous,
     circle criterion) give the stored states and window metrics of the code before the
     port bit for bit (``preset_exact.json``, written by ``preset_metrics.py
-    --write-exact`` at main ea54a97): the port changes no arithmetic. Both sides compile
-    every kernel and helper afresh (empty caches, another process)."""
+    --write-exact`` at main ea54a97): the port changes no arithmetic. One deliberate change
+    since: the cascade observer evaluates psi at y itself where C selects x1 (was x^1 +
+    (y - x^1), which rounds), so dhlm_example's entry was rewritten then (it moved by at
+    most 7.8e-10 relative; apa_fig1's and moreno_fig1's were written again unchanged). Both
+    sides compile every kernel and helper afresh (empty caches, another process)."""
     root = Path(__file__).resolve().parents[1]
     env = {**os.environ, "HGO_CACHE_DIR": str(tmp_path / "kernels"),
            "NUMBA_CACHE_DIR": str(tmp_path / "numba"),
