@@ -214,13 +214,13 @@ class DenseRun:
         runs = [record.at(ts) for record in self.records]
         return runs[0] if self.parts is None else _merge(self.system, self.parts, runs)
 
-    def observer(self, k: int) -> DenseRun:
-        """The run as observer ``k`` sees it: of a split run, its part alone (its own steps,
-        its plant copy; the other observers' columns NaN), so that measuring one observer
-        evaluates and scans one part; an unsplit run as it is."""
+    def part(self, k: int) -> DenseRun:
+        """Of a split run, part ``k``'s steps in the part's own layout (the plant and
+        observer ``k``; its columns are not copied into the whole layout at every instant
+        asked for); an unsplit run as it is."""
         if self.parts is None:
             return self
-        return DenseRun(self.system, [self.records[k]], [self.parts[k]])
+        return DenseRun(self.records[k].system, [self.records[k]])
 
     def boundaries(self, a: float, b: float) -> np.ndarray:
         """The step ends of every part strictly inside (a, b), sorted, with a and b."""

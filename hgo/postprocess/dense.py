@@ -88,11 +88,16 @@ def _cached(run, key: tuple, make: Callable[[], tuple]) -> tuple:
     return cache[key]
 
 
+def _edges(run: DenseRun, a: float, b: float) -> np.ndarray:
+    """``run.boundaries(a, b)``, once per run and window (every metric of a window asks)."""
+    return _cached(run, ("edges", a, b), lambda: (run.boundaries(a, b),))[0]
+
+
 def _gauss(run: DenseRun, a: float, b: float) -> tuple[np.ndarray, np.ndarray, Trajectory]:
     """The Gauss nodes of every step's part of [a, b], their weights (sum: b - a) and the
     signals there."""
     def make():
-        edges = run.boundaries(a, b)
+        edges = _edges(run, a, b)
         lo, width = edges[:-1], np.diff(edges)
         ts = (lo[:, None] + width[:, None] * NODES01[None, :]).ravel()
         return ts, (width[:, None] * WEIGHTS01[None, :]).ravel(), run.at(ts)
@@ -104,7 +109,7 @@ def _halves(run: DenseRun, a: float, b: float) -> tuple[Trajectory, Trajectory]:
     """The signals at the Gauss nodes of both halves of every step's part of [a, b]: the
     first refinement of :func:`integral`, shared by every signal of the window."""
     def make():
-        edges = run.boundaries(a, b)
+        edges = _edges(run, a, b)
         lo, half = edges[:-1], 0.5 * np.diff(edges)
         return tuple(run.at((start[:, None] + half[:, None] * NODES01[None, :]).ravel())
                      for start in (lo, lo + half))
@@ -116,7 +121,7 @@ def _scan(run: DenseRun, a: float, b: float) -> tuple[np.ndarray, Trajectory]:
     """The scan points of [a, b] (the step ends and each step's Gauss nodes, sorted) and
     the signals there."""
     def make():
-        ts = np.union1d(run.boundaries(a, b), _gauss(run, a, b)[0])
+        ts = np.union1d(_edges(run, a, b), _gauss(run, a, b)[0])
         return ts, run.at(ts)
 
     return _cached(run, ("scan", a, b), make)
@@ -195,7 +200,7 @@ def integral(run: DenseRun, signal: Signal, a: float, b: float) -> float:
 
 def _integral(run: DenseRun, signal: Signal, a: float, b: float) -> float:
     _, _, s = _gauss(run, a, b)
-    edges = run.boundaries(a, b)
+    edges = _edges(run, a, b)
     lo, width = edges[:-1], np.diff(edges)
     whole = (np.asarray(signal(s), float).reshape(lo.size, 3) @ WEIGHTS01) * width
     # every step's halves: sampled once for all signals of the window

@@ -92,6 +92,19 @@ def _rates(s: Trajectory, hbar: float) -> np.ndarray:
     return out
 
 
+def _own_steps(run, k: int, za: int, xa: int, held: dict) -> tuple[object, int, int]:
+    """The steps observer ``k`` is measured on (of a split run, its part's own layout:
+    :meth:`DenseRun.part`) and the first columns of its z and x^ there (``za``, ``xa``:
+    in the whole layout). ``held``: the part runs made so far, one per part, so that the
+    plant rows reuse the samples that measuring observer 0 took."""
+    if not isinstance(run, DenseRun) or run.parts is None:
+        return run, za, xa
+    if k not in held:
+        held[k] = run.part(k)
+    part = held[k].system  # the plant and observer k alone
+    return held[k], part.z_slices[1][0], part.xh_slices[0][0]
+
+
 @dataclass(frozen=True)
 class _ObserverSignals:
     """The signals of one observer (z columns from ``za``, estimate from ``xa``) as
@@ -158,6 +171,7 @@ class APAMetrics:
         rates = {"true": _rates(traj, hbar)}
         hbar_o = None
         rows = []
+        parts = {}
         for k, (obs, (za, _), (xa, _)) in enumerate(zip(system.observers, system.z_slices[1:],
                                                         system.xh_slices, strict=True)):
             if not is_apa_observer(obs):
@@ -170,11 +184,12 @@ class APAMetrics:
             out.series += [Series(f"/observer/{obs.name}/Omega", ["Omega"], omega[:, None]),
                            Series(f"/observer/{obs.name}/e_x2", ["e_x2"],
                                   sig.e_x2(traj)[:, None])]
-            mine = run.observer(k) if isinstance(run, DenseRun) else run
-            rows += self._observer_rows(obs, sig, mine, traj.t_stop)
+            mine, za_own, xa_own = _own_steps(run, k, za, xa, parts)
+            rows += self._observer_rows(obs, _ObserverSignals(obs.p, za_own, xa_own, hbar),
+                                        mine, traj.t_stop)
         rate_names = [f"df2dx2_{k}" for k in rates]
         out.series.append(Series(RATE, rate_names, np.column_stack(list(rates.values()))))
-        plant_run = run.observer(0) if isinstance(run, DenseRun) else run  # (part 0's plant)
+        plant_run = _own_steps(run, 0, 0, 0, parts)[0]  # (part 0's plant)
         rows += self._plant_rows(plant_run, traj.t_stop, hbar, hbar_o)
         out.rows = rows
         return out
