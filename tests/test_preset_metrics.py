@@ -30,7 +30,8 @@ STORED = json.loads(pm.STORE.read_text())["cases"]
 SLOW = {"sp_ensemble"}  # 1000 members over 200 s: 18 s alone; left to --check
 #: case -> what moved with the fused multiply-adds against main at ea54a97: rows beyond
 #: 1e-9 relative / stored rows, and the largest relative difference (measured with the
-#: noiseless kernels and the cascade observer's exact psi argument, 2026-11-27; since
+#: noiseless kernels, the cascade observer's exact psi argument and the circle-form
+#: supports, 2026-11-27; since
 #: a624e71 a kernel compiled in the process and one loaded from numba's cache give the same
 #: bits, tests/test_kernel_cache.py).
 #: The largest are threshold functionals (first time below 0.01, the largest rise of
@@ -49,8 +50,8 @@ ROUNDING = {
     "dhlm_omega_law": "12/74 rows, max 2.0e-4 (t_sat_last)",
     "moreno_fig1": "6/34 rows, max 0.067 (gamma, the largest rise above alpha1)",
     "moreno_sector": "6/126 rows, max 0.6 (gamma)",
-    "moreno_pe": "2/34 rows, max 0.015 (norm_e_t10 ~1e-13: round-off floor)",
-    "moreno_sin": "5/34 rows, max 2.0e-4 (norm_e_t10 ~1e-12)",
+    "moreno_pe": "2/34 rows, max 0.012 (norm_e_t10 ~1e-13: round-off floor)",
+    "moreno_sin": "5/34 rows, max 1.4e-3 (norm_e_t10 ~1e-12)",
 }
 QUICK = [pytest.param(name, marks=pytest.mark.xfail(
              strict=True, reason=f"fused multiply-adds in another pattern: {ROUNDING[name]}"))

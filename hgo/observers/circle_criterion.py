@@ -24,23 +24,16 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from hgo.core.components import Observer, Params
-from hgo.plants.circle_form import CircleFormPlant
+from hgo.plants.circle_form import CircleFormPlant, add_input_terms, add_state_terms, dot
 
 
 def f(t, z, d, y, u, p, dz):
     """Moreno (3): x^' = A x^ + L (y - C x^) + G psi(H x^ + N (y - C x^)) + B u."""
-    y_hat = 0.0
-    sigma_hat = 0.0
-    for j in range(p.n):
-        y_hat += p.C[j] * z[j]
-        sigma_hat += p.H[j] * z[j]
-    innov = y[0] - y_hat
-    psi = p.psi(sigma_hat + p.N * innov, p.psi_c)
+    innov = y[0] - dot(p.C, p.C_nz, z, p.n)
+    psi = p.psi(dot(p.H, p.H_nz, z, p.n) + p.N * innov, p.psi_c)
     for i in range(p.n):
-        acc = p.L[i] * innov + p.G[i] * psi + p.B[i] * u[0]
-        for j in range(p.n):
-            acc += p.A[i, j] * z[j]
-        dz[i] = acc
+        acc = add_input_terms(p, i, psi, u[0], p.L[i] * innov)
+        dz[i] = add_state_terms(p, i, z, acc)
 
 
 def estimate(t, z, d, p, xhat):
@@ -96,5 +89,6 @@ def circle_criterion_observer(name: str, plant: CircleFormPlant, L: Sequence[flo
 def _params(plant: CircleFormPlant, L: np.ndarray, N: float) -> Params:
     """The plant's parameters (the model of (3)) and the gains L, N, by name."""
     pp = plant.p
-    return Params({"n": pp.n, "psi": pp.psi}, A=pp.A, G=pp.G, C=pp.C, H=pp.H, B=pp.B,
-                  psi_c=pp.psi_c, L=L, N=N)
+    supports = {k: pp.spec.constants[k] for k in ("A_nz", "G_nz", "C_nz", "H_nz", "B_nz")}
+    return Params({"n": pp.n, "psi": pp.psi, **supports}, A=pp.A, G=pp.G, C=pp.C, H=pp.H,
+                  B=pp.B, psi_c=pp.psi_c, L=L, N=N)

@@ -13,9 +13,12 @@ written in form (2) with the split g(s) = s + psi(s), psi(s) = s^3 - 2 s (readin
 the implementation notes: the only split matching the paper's A_L, the "-2" of phi and
 G(s)): A = [[-1, 1], [0, -a]], G = C^T = [1, 0]^T, H = [0, 1], B = [0, 1]^T.
 
-Parameters (by name): constants n and psi (the nonlinearity, called psi(s, psi_c));
-values A (n x n), G, C, H, B (n each) and psi_c (psi's parameters: the coefficients
-[c_0, c_1, ...] of the default polynomial psi, :func:`polynomial`). A user's psi is any
+Parameters (by name): constants n, psi (the nonlinearity, called psi(s, psi_c)) and the
+supports A_nz, G_nz, C_nz, H_nz, B_nz (row-major flags of the entries that may be nonzero:
+the others are compiled out; all True unless the factory knows its structure, as the
+Section 5 example does); values A (n x n), G, C, H, B (n each) and psi_c (psi's
+parameters: the coefficients [c_0, c_1, ...] of the default polynomial psi,
+:func:`polynomial`). A user's psi is any
 function psi(s, c) numba can compile (or plain Python, on the slower path), with its
 global sector lower bound K1 given by the user (Moreno (6), for the theory rows).
 """
@@ -29,7 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from hgo.core.components import Params, Plant, user_function
-from hgo.engine.jit import kernel_helper
+from hgo.engine.jit import kernel_helper, record_helper
 from hgo.plants.sector import global_sector_lower
 
 
@@ -48,25 +51,45 @@ def polynomial(s, c):
     return poly(c, s)
 
 
+@record_helper
+def dot(v, support, x, n):
+    """sum_j v[j] x[j] over the entries j of the support (the others are zero)."""
+    acc = 0.0
+    for j in range(n):
+        if support[j]:
+            acc += v[j] * x[j]
+    return acc
+
+
+@record_helper
+def add_input_terms(p, i, psi, u, acc):
+    """acc + G_i psi + B_i u (the terms in the support), summed in this order."""
+    if p.G_nz[i]:
+        acc += p.G[i] * psi
+    if p.B_nz[i]:
+        acc += p.B[i] * u
+    return acc
+
+
+@record_helper
+def add_state_terms(p, i, x, acc):
+    """acc + row i of A x (the entries in the support)."""
+    for j in range(p.n):
+        if p.A_nz[i * p.n + j]:
+            acc += p.A[i, j] * x[j]
+    return acc
+
+
 def f(t, x, u, p, dx):
     """Moreno (2): x' = A x + G psi(H x) + B u."""
-    sigma = 0.0
-    for j in range(p.n):
-        sigma += p.H[j] * x[j]
-    psi = p.psi(sigma, p.psi_c)
+    psi = p.psi(dot(p.H, p.H_nz, x, p.n), p.psi_c)
     for i in range(p.n):
-        acc = p.G[i] * psi + p.B[i] * u[0]
-        for j in range(p.n):
-            acc += p.A[i, j] * x[j]
-        dx[i] = acc
+        dx[i] = add_state_terms(p, i, x, add_input_terms(p, i, psi, u[0], 0.0))
 
 
 def h(t, x, p, y):
     """y = C x."""
-    acc = 0.0
-    for j in range(p.n):
-        acc += p.C[j] * x[j]
-    y[0] = acc
+    y[0] = dot(p.C, p.C_nz, x, p.n)
 
 
 @dataclass
@@ -104,14 +127,31 @@ def _vector(name: str, value: Sequence[float], n: int) -> np.ndarray:
     return arr
 
 
+def _supports(given: dict[str, np.ndarray], support: dict | None) -> dict[str, tuple]:
+    """The constants ``<name>_nz``: the entries of each matrix that may be nonzero (all,
+    unless ``support`` names a structure; a nonzero value outside it is an error)."""
+    out = {}
+    for name, value in given.items():
+        nz = np.ones(value.shape, bool) if support is None else \
+            np.asarray(support[name], bool).reshape(value.shape)
+        if np.any(value[~nz] != 0.0):
+            raise ValueError(f"plant.{name} = {value.tolist()} is nonzero outside its "
+                             f"structure {nz.astype(int).tolist()}")
+        out[f"{name}_nz"] = tuple(bool(v) for v in nz.ravel())
+    return out
+
+
 def circle_form_plant(A: Sequence[Sequence[float]], G: Sequence[float], C: Sequence[float],
                       H: Sequence[float], B: Sequence[float], psi: Sequence[float] | Callable,
                       x0: Sequence[float], name: str = "circle_form",
-                      psi_c: Sequence[float] = (), K1: float | None = None) -> CircleFormPlant:
+                      psi_c: Sequence[float] = (), K1: float | None = None,
+                      support: dict | None = None) -> CircleFormPlant:
     """Plant (2) from its matrices and psi: the coefficients [c_0, c_1, ...] (ascending)
     of a polynomial, or a function psi(s, c) with its parameters ``psi_c`` and the global
     sector lower bound ``K1`` of phi(z, s) = psi(s) - psi(s - z) (Moreno (6); -inf when
-    not given: the theory rows then have no sector)."""
+    not given: the theory rows then have no sector). ``support``: for a factory that knows
+    its structure, per matrix name the flags (its shape) of the entries that may be
+    nonzero; the kernel leaves the others out. Default: every entry."""
     A = np.asarray(A, float)
     n = A.shape[0]
     if A.ndim != 2 or A.shape != (n, n) or n < 1 or not np.all(np.isfinite(A)):
@@ -129,7 +169,8 @@ def circle_form_plant(A: Sequence[Sequence[float]], G: Sequence[float], C: Seque
             raise ValueError(f"plant.psi must be >= 1 finite coefficients, got "
                              f"{coeffs.tolist()}")
         sector = global_sector_lower(coeffs) if K1 is None else float(K1)
-    p = Params({"n": n, "psi": fn}, A=A, G=G, C=C, H=H, B=B, psi_c=coeffs)
+    given = {"A": A, "G": G, "C": C, "H": H, "B": B}
+    p = Params({"n": n, "psi": fn, **_supports(given, support)}, psi_c=coeffs, **given)
     lin = float(np.max(np.abs(np.linalg.eigvals(A))))
     return CircleFormPlant(
         name=name, state_names=[f"x{i + 1}" for i in range(n)], output_names=["y"],
@@ -145,7 +186,12 @@ def moreno_example_plant(a: float = 0.0, x0: Sequence[float] = (0.0, 0.0)) -> Ci
         raise ValueError(f"plant.a must be a finite number >= 0, got {a}")
     return circle_form_plant(A=[[-1.0, 1.0], [0.0, -a]], G=[1.0, 0.0], C=[1.0, 0.0],
                              H=[0.0, 1.0], B=[0.0, 1.0], psi=[0.0, -2.0, 0.0, 1.0], x0=x0,
-                             name="moreno_example")
+                             name="moreno_example", support=EXAMPLE_SUPPORT)
+
+
+#: the zeros of Section 5's matrices for every a (A[1, 1] = -a stays in: a may be 0 or not
+#: within one sweep or ensemble, which then shares one kernel)
+EXAMPLE_SUPPORT = {"A": [[1, 1], [0, 1]], "G": [1, 0], "C": [1, 0], "H": [0, 1], "B": [0, 1]}
 
 
 def example_rhs(x: np.ndarray, u: float, a: float) -> np.ndarray:
