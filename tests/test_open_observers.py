@@ -16,7 +16,7 @@ from hgo.engine.system import System
 from hgo.observers.adaptive_cascade import adaptive_cascade
 from hgo.observers.circle_criterion import circle_criterion_observer
 from hgo.observers.homogeneous_dynamic import homogeneous_dynamic_hgo
-from hgo.plants.circle_form import circle_form_plant, moreno_example_plant
+from hgo.plants.circle_form import EXAMPLE_SUPPORT, circle_form_plant, moreno_example_plant
 from hgo.plants.robot_arm import robot_arm_plant
 
 ARM = dict(A=[[0.0, 1.0], [0.0, 0.0]], B=[[0.0], [1.0]], C=[[1.0, 0.0]])
@@ -110,3 +110,25 @@ def test_circle_criterion_with_the_users_psi_matches_the_polynomial():
     assert all(r.ok for r in runs)
     np.testing.assert_allclose(runs[1].z, runs[0].z, rtol=1e-7, atol=1e-7)
     assert abs(runs[0].z[0, 2] - runs[0].z[0, 0]) == pytest.approx(70.0)  # started apart
+
+
+def test_circle_form_support_runs_as_the_dense_plant_and_rejects_values_outside_it():
+    """The Section 5 example with its declared support (A[1, 0], G[1], C[1], H[0], B[0]
+    compiled out) runs as the same plant built dense (every entry in the kernel), to 1e-12
+    relative over 1 s (rtol 1e-10: the same steps); a support that excludes a nonzero entry
+    is refused, naming it."""
+    solver = SolverSettings(t_end=1.0, dt_out=0.01, method="dop853", rtol=1e-10, atol=1e-12)
+    dense = dict(A=[[-1.0, 1.0], [0.0, -0.5]], G=[1.0, 0.0], C=[1.0, 0.0], H=[0.0, 1.0],
+                 B=[0.0, 1.0], psi=[0.0, -2.0, 0.0, 1.0], x0=[0.0, 0.0])
+    runs = []
+    for plant in (moreno_example_plant(a=0.5), circle_form_plant(**dense)):
+        obs = circle_criterion_observer("circle", plant, L=[200.0, 120.0], N=2.0,
+                                        e0=[70.0, -50.0])
+        runs.append(simulate(System(plant, [obs], sinusoids_controller(omega=[1.0],
+                                                                        a=[2.0], b=[1.0])),
+                             solver, no_noise(1)))
+    assert moreno_example_plant().p.spec.constants["A_nz"] == (True, True, False, True)
+    assert all(r.ok for r in runs)
+    np.testing.assert_allclose(runs[0].z, runs[1].z, rtol=1e-12, atol=1e-12)
+    with pytest.raises(ValueError, match=r"plant.G = \[1.0, 0.5\] is nonzero outside"):
+        circle_form_plant(**{**dense, "G": [1.0, 0.5]}, support={**EXAMPLE_SUPPORT})
