@@ -2,6 +2,7 @@
 
     python benchmarks/run.py --only hand          # or: python benchmarks/hand_bench.py
     python benchmarks/hand_bench.py --outputs     # DHLM, Moreno: outputs against steps
+    python benchmarks/hand_bench.py --only=DHLM,Moreno   # those ratios alone
 
 For each problem, hgo's whole in-process call as a user's script makes it (the system or
 experiment built once; then ``simulate(system, solver, noise)`` or
@@ -196,10 +197,15 @@ def member_build_ms(n: int = GRID_N) -> tuple[float, int]:
     return t / size * 1e3, size
 
 
-def bench(quick: bool = False) -> dict:
-    cases = {"A": case_a, "B": case_b, "APA": case_apa,
-             "DHLM": lambda: case_paper(DHLM, dhlm_kernel, DHLM_Z0),
-             "Moreno": lambda: case_paper(MORENO, moreno_kernel, MORENO_Z0)}
+CASES = {"A": case_a, "B": case_b, "APA": case_apa,
+         "DHLM": lambda: case_paper(DHLM, dhlm_kernel, DHLM_Z0),
+         "Moreno": lambda: case_paper(MORENO, moreno_kernel, MORENO_Z0)}
+
+
+def bench(quick: bool = False, only: list[str] | None = None) -> dict:
+    """The ratio table and line; ``only``: those problems alone (no member build, no
+    compile times: for comparing two checkouts process by process)."""
+    cases = {k: CASES[k] for k in only} if only else CASES
     load = os.getloadavg()[0]
     print(f"\n## hgo over hand-written kernels (CPU s, medians of {REPS} interleaved calls; "
           f"load average {load:.2f})\n")
@@ -211,6 +217,9 @@ def bench(quick: bool = False) -> dict:
         (t_hgo, _), (t_hand, _) = interleaved_median_cpu([hgo, hand], 7 if quick else REPS)
         ratios[name] = t_hgo / t_hand
         print(f"| {name} | {t_hgo:.5f} | {t_hand:.5f} | {ratios[name]:.2f} | {diff:.1e} |")
+    if only:
+        print("hgo_over_hand: " + " ".join(f"{k}={v:.2f}" for k, v in ratios.items()))
+        return ratios
     ms, size = member_build_ms(30 if quick else GRID_N)
     print(f"\nmember build: {ms:.3f} ms CPU per member ({size} members, prepare_ensemble; "
           f"load {os.getloadavg()[0]:.2f})")
@@ -226,5 +235,6 @@ if __name__ == "__main__":
     t0 = time.perf_counter()
     if "--outputs" in sys.argv:
         outputs_split()
-    else:
-        bench("--quick" in sys.argv)
+    else:  # --only A,B,...: some problems alone
+        picked = next((a.split("=", 1)[1] for a in sys.argv if a.startswith("--only=")), "")
+        bench("--quick" in sys.argv, [k for k in picked.split(",") if k] or None)
