@@ -177,6 +177,11 @@ def _header(system: System, names: dict, noisy: bool) -> str:
     # the update needs u only if some update reads it (u may cost a controller evaluation)
     update_u = ctrl_obs is not None and any(_reads(fn, 4) for fn in updates
                                             if fn is not no_update)
+    # y = h(x) + m into w; a run without noise: y is h(x) itself, so the compiler can share
+    # what the plant and an observer compute of it (e.g. sin x1 and sin y)
+    measure = [f"    {names['plant_h']}(t, {_v('z', 0, nx)}, {p_args[0]}, {y})",
+               *([f"    for i in range({ny}):", "        w[i] += m[i]"] if noisy else
+                 ["    # noiseless kernel: y = h(x)"])]
     lines = [
         "import math",
         "from collections import namedtuple",
@@ -200,13 +205,8 @@ def _header(system: System, names: dict, noisy: bool) -> str:
         "@ijit",
         "def _signals(t, z, d, m, P, w):",
         '    """Measured outputs y = h(x) + m and the input u, into the work vector w."""',
-        f"    {names['plant_h']}(t, {_v('z', 0, nx)}, {p_args[0]}, {y})",
-        *([f"    for i in range({ny}):", "        w[i] += m[i]"] if noisy else
-          # a run without noise: y is h(x) itself, so the compiler can share what the
-          # plant and an observer compute of it (e.g. sin x1 and sin y)
-          ["    # noiseless kernel: y = h(x)"]),
+        *measure,
     ]
-    signals_y = lines[-5 if noisy else -4:]  # the same function up to here: y only
     if ctrl_obs is not None:
         k = ctrl_obs
         zk, dk, pk = obs_args(k)
@@ -214,9 +214,9 @@ def _header(system: System, names: dict, noisy: bool) -> str:
         if reads_estimate(system):  # (an open-loop input ignores the estimate)
             lines.append(f"    {names['obs'][k][2]}(t, {zk}, {dk}, {pk}, {xc})")
         lines.append(f"    {names['ctrl']}(t, {xc}, {y}, {p_args[-1]}, {u})")
-    lines += ["", "", "@ijit", signals_y[0].replace("_signals(", "_signals_y("),
+    lines += ["", "", "@ijit", "def _signals_y(t, z, d, m, P, w):",
               '    """Measured outputs y = h(x) + m only (w[u] is left as it is)."""',
-              *signals_y[2:]]
+              *measure]
     lines += ["", "", "@ijit", "def system_rhs(t, z, d, m, P, w, dz):",
               "    _signals(t, z, d, m, P, w)",
               f"    {names['plant_f']}(t, {_v('z', 0, nx)}, {u}, {p_args[0]}, "

@@ -5,10 +5,10 @@ calls), ``ijit`` (inlined into their caller, not callable from Python: every oth
 function here), ``pjit``, ``prange``,
 ``view``, the layout constants and the composed functions ``system_rhs``,
 ``system_update``, ``system_outputs``, ``system_errors`` and ``system_stiffness``, then
-appends the section ``common`` and the section of the one integrator the run asks for (``rk4``, or
-``adaptive`` for ``dopri5``/``dop853``): only that integrator is compiled. The result is
-compiled with numba (or run as plain Python when a user component cannot be compiled).
-Never imported on its own.
+appends the section ``common`` and the section of the one integrator the run asks for
+(``rk4``, or ``adaptive`` for ``dopri5``/``dop853``): only that integrator is compiled. The
+result is compiled with numba (or run as plain Python when a user component cannot be
+compiled). Never imported on its own.
 
 Time handling (hybrid systems): no step straddles a noise sample instant k*noise_dt
 (the held noise jumps there) or a break point (``breaks``: the sorted instants where the

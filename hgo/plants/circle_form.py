@@ -18,9 +18,9 @@ supports A_nz, G_nz, C_nz, H_nz, B_nz (row-major flags of the entries that may b
 the others are compiled out; all True unless the factory knows its structure, as the
 Section 5 example does); values A (n x n), G, C, H, B (n each) and psi_c (psi's
 parameters: the coefficients [c_0, c_1, ...] of the default polynomial psi,
-:func:`polynomial`). A user's psi is any
-function psi(s, c) numba can compile (or plain Python, on the slower path), with its
-global sector lower bound K1 given by the user (Moreno (6), for the theory rows).
+:func:`polynomial`). A user's psi is any function psi(s, c) numba can compile (or plain
+Python, on the slower path), with its global sector lower bound K1 given by the user
+(Moreno (6), for the theory rows).
 """
 
 from __future__ import annotations
