@@ -158,3 +158,25 @@ def test_figure_view_does_not_grow_with_the_run(tmp_path, monkeypatch):
         sizes[f"full {t_end}"] = len(pickle.dumps(full, protocol=pickle.HIGHEST_PROTOCOL))
     assert abs(sizes[50] - sizes[5]) < 0.02 * sizes[5], sizes
     assert sizes[50] < 0.2 * sizes["full 50"], sizes
+
+
+def test_collection_paused_restores_the_collector_as_it_was():
+    """The collector is off inside ``collection_paused`` (an ensemble's members are built
+    there) and back as it was after it, also after an exception; it stays off after the
+    block when it was off before."""
+    import gc
+
+    from hgo.core.memory import collection_paused
+
+    assert gc.isenabled()
+    with pytest.raises(RuntimeError), collection_paused():
+        assert not gc.isenabled()
+        raise RuntimeError
+    assert gc.isenabled()
+    gc.disable()
+    try:
+        with collection_paused():
+            assert not gc.isenabled()
+        assert not gc.isenabled()
+    finally:
+        gc.enable()

@@ -75,9 +75,7 @@ class Params:
     def __init__(self, constants: Mapping[str, Constant] | None = None, /, **values) -> None:
         self.constants = {k: _constant(k, v) for k, v in (constants or {}).items()}
         for name in [*self.constants, *values]:
-            if hasattr(np.ndarray, name) or name.startswith("_"):
-                raise ValueError(f"parameter name '{name}' is taken by numpy arrays (or "
-                                 "private); choose another")
+            _check_name(name)
         both = set(self.constants) & set(values)
         if both:
             raise ValueError(f"parameters {sorted(both)} are given as values and constants")
@@ -170,9 +168,20 @@ def named(component, values: np.ndarray):
     return values if spec is None else _param_vector(values, spec)
 
 
+@functools.cache
+def _check_name(name: str) -> None:
+    """ValueError unless ``name`` can name a parameter (cached: a component is built per
+    member of an ensemble, with the same names)."""
+    if hasattr(np.ndarray, name) or name.startswith("_"):
+        raise ValueError(f"parameter name '{name}' is taken by numpy arrays (or private); "
+                         "choose another")
+
+
 def _constant(name: str, value) -> Constant:
     """A constant as the kernel text writes it: numbers, bools, tuples of numbers (from
     lists and arrays), or a callable."""
+    if type(value) in (bool, int, float):  # the common case, before the abstract checks
+        return value
     if isinstance(value, (bool, np.bool_)):
         return bool(value)
     if isinstance(value, numbers.Integral):

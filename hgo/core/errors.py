@@ -167,6 +167,6 @@ def as_floats(key: str, value, shape: tuple[int | None, ...] | None = None):
             for have, want in zip(arr.shape, shape, strict=True))):
         want = " x ".join("n" if s is None else str(s) for s in shape)
         raise ConfigError(key, f"must have shape {want}, got {value!r}")
-    if not np.all(np.isfinite(arr)):
+    if not np.isfinite(arr).all():
         raise ConfigError(key, f"must be finite, got {value!r}")
     return arr

@@ -22,6 +22,7 @@ p1, p2, b, K (n: K~), M (n x n), c (n).
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 
@@ -79,9 +80,35 @@ def estimate(t, z, d, p, xhat):
         xhat[i] = z[i]
 
 
-def _check(cond: bool, message: str) -> None:
-    if not cond:
-        raise ValueError(message)
+@functools.cache
+def _strictly_upper(n: int) -> np.ndarray:
+    """Mask of the entries above the diagonal of an n x n matrix."""
+    return np.triu(np.ones((n, n), bool), 1)
+
+
+def _problem(n: int, law: str, n_xhat0: int, M: np.ndarray, r0: float, p1: float,
+             p2: float, b: float) -> str | None:
+    """What is out of range, as the message after ``observer.<name>``, or None. Messages are
+    formatted only when a check fails: one observer is built per member of an ensemble."""
+    if n < 1:
+        return ": K must have n >= 1 entries"
+    if law not in LAWS:
+        return f".law: '{law}' not in {sorted(LAWS)}"
+    if n_xhat0 != n:
+        return f".xhat0 must have n={n} entries, got {n_xhat0}"
+    if (np.abs(M[_strictly_upper(n)]) > 1e-8).any():  # |M_ij| <= 1e-8 above the diagonal
+        return ".M must be lower triangular (form (3))"
+    if not r0 >= 1:
+        return f".r0 must be >= 1 (Sanfelice & Praly, Theorem 2.2 C), got {r0}"
+    if law == "constant":
+        return None
+    if not p1 > 0:
+        return f".p1 must be > 0, got {p1}"
+    if not p2 > 0:
+        return f".p2 must be > 0, got {p2}"
+    if not 0 < b < 0.5:
+        return f".b must be in (0, 1/2), got {b}"
+    return None
 
 
 def triangular_hgo(name: str, K: Sequence[float], xhat0: Sequence[float], r0: float = 1.0,
@@ -92,21 +119,9 @@ def triangular_hgo(name: str, K: Sequence[float], xhat0: Sequence[float], r0: fl
     n = len(K)
     M = np.zeros((n, n)) if M is None else as_floats(f"observer.{name}.M", M, (n, n))
     c = np.zeros(n) if c is None else as_floats(f"observer.{name}.c", c, (n,))
-    _check(n >= 1, f"observer.{name}: K must have n >= 1 entries")
-    _check(law in LAWS, f"observer.{name}.law: '{law}' not in {sorted(LAWS)}")
-    _check(len(xhat0) == n, f"observer.{name}.xhat0 must have n={n} entries, got {len(xhat0)}")
-    _check(M.shape == (n, n), f"observer.{name}.M must be {n}x{n}, got {M.shape}")
-    # |M_ij| <= 1e-8 above the diagonal (np.allclose(M, np.tril(M)) at a quarter of its cost:
-    # one observer per member of an ensemble)
-    _check(not (np.abs(np.triu(M, 1)) > 1e-8).any(),
-           f"observer.{name}.M must be lower triangular (form (3))")
-    _check(c.shape == (n,), f"observer.{name}.c must have n={n} entries")
-    _check(r0 >= 1, f"observer.{name}.r0 must be >= 1 (Sanfelice & Praly, Theorem 2.2 C), "
-           f"got {r0}")
-    if law != "constant":
-        _check(p1 > 0, f"observer.{name}.p1 must be > 0, got {p1}")
-        _check(p2 > 0, f"observer.{name}.p2 must be > 0, got {p2}")
-        _check(0 < b < 0.5, f"observer.{name}.b must be in (0, 1/2), got {b}")
+    problem = _problem(n, law, len(xhat0), M, r0, p1, p2, b)
+    if problem:
+        raise ValueError(f"observer.{name}{problem}")
     p = Params({"n": n, "law": LAWS[law]}, p1=p1, p2=p2, b=b, K=K, M=M, c=c)
     return Observer(name=name, state_names=[f"xhat{i + 1}" for i in range(n)] + ["r"],
                     disc_names=[], estimated_states=list(range(n)),

@@ -37,6 +37,7 @@ from hydra.utils import instantiate
 from omegaconf import DictConfig
 
 from hgo.core.errors import ConfigError
+from hgo.core.memory import collection_paused
 from hgo.core.validate import check_ensemble_cost, check_values
 from hgo.engine.jit import run_seconds
 from hgo.engine.simulate import INTERRUPTED, rho_const, simulate, simulate_ensemble
@@ -244,6 +245,12 @@ def prepare_ensemble(cfg: DictConfig) -> EnsemblePlan:
                           "0 for a single run (or one member per grid point), or >= 1")
     solver = solver_settings(cfg)
     _check_members_cost(cfg, solver)
+    with collection_paused():
+        return _prepare_members(cfg, solver)
+
+
+def _prepare_members(cfg: DictConfig, solver) -> EnsemblePlan:
+    """Members planned, built, stacked and their noise sampled."""
     plan = plan_members(cfg)
     size = len(plan.index)
     nodes = member_nodes(cfg, plan.values) if plan.values else [cfg] * size
