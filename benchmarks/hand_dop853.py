@@ -1,8 +1,8 @@
 """A hand-written numba DOP853 for the papers' hand kernels (issue 24, item 5).
 
-``dop853_kernel(rhs, nz)`` returns one compiled function
+``dop853_kernel(rhs, nz, errors, n_est)`` returns one compiled function
 
-    run(z, p, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, rec)
+    run(z, p, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, rec, window, metrics)
         -> (accepted steps, rejected steps; -1: step-size underflow)
 
 integrating ``rhs(t, z, p, m, dz)`` (an ``inline="always"`` njit function written out by
@@ -14,8 +14,16 @@ noise held on [k noise_dt, (k+1) noise_dt), ``noise[k]``; ``noise_dt = inf`` for
 t = 0: scipy's DOP853 coefficients, Hairer's starting step, scipy's step-size control
 (factor 0.9 err^(-1/8) in [0.2, 10], no growth right after a rejection), steps capped at
 ``h_max`` and cut at the noise instants and at ``t_end``, outputs from the 7th-order
-continuous extension (3 more evaluations, only in steps that hold an output). So it takes
-hgo's steps, up to round-off.
+continuous extension (3 more evaluations, only in steps that hold an output or overlap
+the window). So it takes hgo's steps, up to round-off.
+
+The window metrics hgo's run computes, as hgo computes them (``kernel_template``'s
+``_window_step``): ``errors(t, z, p, m, sq)`` writes the squared errors (x^_j - x_j)^2 of the
+``n_est`` estimated states, then (y^ - y)^2; over the trailing ``window`` (the steps that
+overlap [t_end - window, t_end]), ``metrics[:n_sq]`` gets their integrals by 3-point
+Gauss-Legendre on each step's continuous extension, ``metrics[n_sq]`` the largest
+||x^ - x|| at those nodes and at the step ends, ``metrics[n_sq + 1]`` the window's length
+(``window = 0``: none).
 """
 
 from __future__ import annotations
@@ -36,10 +44,13 @@ E3 = np.ascontiguousarray(dop.E3)
 E5 = np.ascontiguousarray(dop.E5)
 N_F = dop.INTERPOLATOR_POWER  # 7
 ERR_EXP = -1.0 / 8.0
+GAUSS_NODES = np.array([0.5 - 0.5 * math.sqrt(0.6), 0.5, 0.5 + 0.5 * math.sqrt(0.6)])
+GAUSS_WEIGHTS = np.array([5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0])
 
 
-def dop853_kernel(rhs, nz: int):
-    """The compiled DOP853 run of ``rhs`` (see the module docstring)."""
+def dop853_kernel(rhs, nz: int, errors, n_est: int):
+    """The compiled DOP853 run of ``rhs`` with the window metrics of ``errors`` (see the
+    module docstring)."""
 
     @numba.njit(inline="always")
     def stage(s, t, h, z, p, m, K, zt):
@@ -118,14 +129,46 @@ def dop853_kernel(rhs, nz: int):
         h1 = max(1e-6, h0 * 1e-3) if dm <= 1e-15 else (0.01 / dm) ** -ERR_EXP
         return min(100.0 * h0, h1, h_max)
 
+    @numba.njit(inline="always")
+    def largest_norm(sq, metrics, n_sq):
+        """metrics[n_sq] = max(metrics[n_sq], ||x^ - x||) from the squared errors sq[:n_est]."""
+        norm2 = 0.0
+        for j in range(n_est):
+            norm2 += sq[j]
+        metrics[n_sq] = max(metrics[n_sq], math.sqrt(norm2))
+
+    @numba.njit(inline="always")
+    def window_step(t, h, a, b, z, p, m, F, zo, sq, metrics):
+        """The part [a, b] of the step [t, t + h]: 3-point Gauss-Legendre on its continuous
+        extension."""
+        n_sq = sq.shape[0]
+        for q in range(3):
+            tq = a + (b - a) * GAUSS_NODES[q]
+            x = (tq - t) / h
+            s = 1.0 - x
+            for i in range(nz):
+                v = F[N_F - 1, i]
+                for c in range(N_F - 2, -1, -1):
+                    v = F[c, i] + (s if c % 2 == 0 else x) * v
+                zo[i] = z[i] + x * v
+            errors(tq, zo, p, m, sq)
+            largest_norm(sq, metrics, n_sq)
+            for j in range(n_sq):
+                metrics[j] += (b - a) * GAUSS_WEIGHTS[q] * sq[j]
+        metrics[n_sq + 1] += b - a
+
     @numba.njit(error_model="numpy")
-    def run(z, p, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, rec):
+    def run(z, p, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, rec, window, metrics):
         K = np.zeros((N_EXT, nz))
         F = np.zeros((N_F, nz))
         zt = np.zeros(nz)
         scratch = np.zeros(nz)
+        n_sq = metrics.shape[0] - 2
+        sq = np.zeros(n_sq)
         n_out = int(round(t_end / dt_out)) + 1
         tol = 1e-12 * max(1.0, t_end)
+        t_win0 = t_end - window
+        metrics[:] = 0.0
         for i in range(nz):
             rec[0, i] = z[i]
         t = 0.0
@@ -161,6 +204,11 @@ def dop853_kernel(rhs, nz: int):
                 accepted += 1
                 t_new = t_seg if last else t + hh
                 prepared = False
+                if t_new > t_win0 + tol:  # the step overlaps the metrics window
+                    dense(t, hh, z, zt, p, m, K, F, scratch)
+                    prepared = True
+                    window_step(t, hh, max(t, t_win0), t_new, z, p, m, F, scratch, sq,
+                                metrics)
                 while k_out < n_out and k_out * dt_out < t_new - tol:  # outputs in the step
                     if not prepared:
                         dense(t, hh, z, zt, p, m, K, F, scratch)
@@ -177,6 +225,9 @@ def dop853_kernel(rhs, nz: int):
                     z[i] = zt[i]
                     K[0, i] = K[N_STAGES, i]
                 t = t_new
+                if t >= t_win0 - tol:  # the step end, for the largest norm
+                    errors(t, z, p, m, sq)
+                    largest_norm(sq, metrics, n_sq)
                 fac = 10.0 if err == 0.0 else min(10.0, max(0.2, 0.9 * err ** ERR_EXP))
                 if retried:
                     fac = min(1.0, fac)

@@ -68,8 +68,30 @@ def moreno_rhs(t, w, p, m, dw):
     dw[3] = -MORENO_A * xh2 + MORENO_L2 * innov + u
 
 
-dhlm_kernel = dop853_kernel(dhlm_rhs, 8)
-moreno_kernel = dop853_kernel(moreno_rhs, 4)
+@numba.njit(inline="always")
+def dhlm_errors(t, w, p, m, sq):
+    """hgo's window errors: x^ of (5) against x, and y^ = x^1 against y = x1 (no noise)."""
+    sq[0] = (w[4] - w[0]) ** 2
+    sq[1] = (w[5] - w[1]) ** 2
+    sq[2] = (w[4] - w[0]) ** 2
+
+
+@numba.njit(inline="always")
+def moreno_errors(t, w, p, m, sq):
+    """hgo's window errors: x^ against x, and y^ = x^1 against y = x1."""
+    sq[0] = (w[2] - w[0]) ** 2
+    sq[1] = (w[3] - w[1]) ** 2
+    sq[2] = (w[2] - w[0]) ** 2
+
+
+@numba.njit(inline="always")
+def no_errors(t, w, p, m, sq):
+    """No window metrics (the APA kernels run with window 0)."""
+    return
+
+
+dhlm_kernel = dop853_kernel(dhlm_rhs, 8, dhlm_errors, 2)
+moreno_kernel = dop853_kernel(moreno_rhs, 4, moreno_errors, 2)
 
 
 # Andrieu, Praly & Astolfi, apa_fig2 (conf/experiment/apa_fig2.yaml): the Contois plant
@@ -137,4 +159,4 @@ def apa_kernel(name: str):
         omega = model_terms(kind, apa_input(0.0), ys, x_hat[1], q, hbar, eps2, dfmax)[1]
         return np.array([*APA_ETA0, *x_hat, phi2 + phi3 / phi1 * omega])
 
-    return dop853_kernel(rhs, 5), start
+    return dop853_kernel(rhs, 5, no_errors, 0), start
