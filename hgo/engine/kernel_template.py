@@ -388,6 +388,28 @@ def _record_step(SR, ctl, t, h, z, F, d, m):
         SR[row, 2 + nz + nf + nd + i] = m[i]
 
 
+@ijit
+def _step_of(SR, n_steps, t, k):
+    """The step containing t: the last one starting at or before it (the first if none;
+    the last for a NaN t, as numpy's searchsorted), looked for first at step k and the
+    next one (the previous instant's: instants come mostly in order), else by bisection
+    over the step starts ``SR[:n_steps, 0]``."""
+    if n_steps < 2:
+        return 0
+    if SR[k, 0] <= t and (k + 1 == n_steps or t < SR[k + 1, 0]):
+        return k
+    if k + 1 < n_steps and SR[k + 1, 0] <= t and (k + 2 == n_steps or t < SR[k + 2, 0]):
+        return k + 1
+    lo, hi = 0, n_steps  # the first start after t (NaN after all: not t < start)
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if t < SR[mid, 0]:
+            hi = mid
+        else:
+            lo = mid + 1
+    return max(0, lo - 1)
+
+
 @jit
 def dense_signals(SR, n_steps, ts, P, Z, D, Y, M, U, XH):
     """Every signal at the instants ``ts`` (within the run) from the step record: the step
@@ -402,13 +424,15 @@ def dense_signals(SR, n_steps, ts, P, Z, D, Y, M, U, XH):
     d = view(work, 2 * nz + nf, 2 * nz + nf + nd)
     m = view(work, 2 * nz + nf + nd, 2 * nz + nf + nd + NY)
     w, y, u, xh, sq, prev, win, m2 = _common_views(work, 2 * nz + nf + nd + NY)
-    starts = SR[:n_steps, 0]
+    k, loaded = 0, -1
     for j in range(ts.shape[0]):
-        k = max(0, min(n_steps - 1, np.searchsorted(starts, ts[j], side="right") - 1))
-        for i in range(nz):
-            z[i] = SR[k, 2 + i]
-        for i in range(nf):
-            F[i] = SR[k, 2 + nz + i]
+        k = _step_of(SR, n_steps, ts[j], k)
+        if k != loaded:  # (z and F: read-only below; several instants share a step)
+            loaded = k
+            for i in range(nz):
+                z[i] = SR[k, 2 + i]
+            for i in range(nf):
+                F[i] = SR[k, 2 + nz + i]
         for i in range(nd):
             d[i] = SR[k, 2 + nz + nf + i]
         for i in range(NY):
