@@ -53,6 +53,21 @@ def test_spr_exact_known_cases():
     assert not th.spr_exact([0.1, 1], [1, 0.1, 4])
 
 
+def test_compose_is_poly1d_composition_to_the_last_bit():
+    """th.compose (the poly1d arithmetic of spr_exact and shifted, without poly1d objects)
+    gives np.poly1d(p)(np.poly1d(x)).coeffs bit for bit: dtype, length (leading zeros
+    dropped) and values, zero and signed-zero coefficients included."""
+    rng = np.random.default_rng(0)
+    for _ in range(500):
+        p = rng.normal(size=rng.integers(1, 6)) * 10.0 ** rng.uniform(-3, 3)
+        p[rng.random(p.size) < 0.3] = 0.0
+        p[rng.random(p.size) < 0.1] = -0.0
+        for x in (np.array([1j, 0]), np.array([1.0, -rng.uniform(0, 5)]),
+                  np.array([0.0, 2.0]), rng.normal(size=3)):
+            want, got = np.poly1d(p)(np.poly1d(x)).coeffs, th.compose(p, x)
+            assert got.dtype == want.dtype and got.tobytes() == want.tobytes()
+
+
 def test_lmi_7b_linear_sector_toy():
     """(7b) on e' = -e + phi(z), z = e (A_L = -1, G = H_N = 1; phi = K z is stable iff K < 1,
     the circle criterion's sector [0, 1)). With the paper's corner -I (W^T W = I) the LMI
