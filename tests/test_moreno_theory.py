@@ -124,6 +124,34 @@ def test_remark63_window_maximum_between_step_ends():
     assert not np.any(np.isclose(s_best, np.concatenate([t, t - 2.0]), atol=1e-3))
 
 
+def test_remembering_a_quantity_of_the_samples_keeps_every_number():
+    """best_K1t's way (K1(sigma) remembered at each array of instants, varrho of each K~1 a
+    function of it): the windowed mean's maximum on Remembering(run, of) is the plain run's,
+    bit for bit, and the instants asked again for the next level are not sampled again."""
+    t = np.linspace(0, 20, 8)
+    run = GridRun(Trajectory(t, np.sin(t)[:, None], np.zeros((8, 0)), np.zeros((8, 1)),
+                             np.zeros((8, 1)), np.zeros((8, 0)), np.zeros((8, 0)), 0, 20.0,
+                             np.zeros(0)))
+    sampled = []
+
+    def of(s):
+        sampled.append(s.t.size)
+        return s.z[:, 0] ** 2 - 0.3
+
+    remembering = dense.Remembering(run, of)
+    counts = []
+    for level in (0.1, 0.5):
+        plain = dense.window_mean_max(dense.Cumulative(
+            run, lambda s, lv=level: np.maximum(0.0, lv - (s.z[:, 0] ** 2 - 0.3)), 0.0, 20.0),
+            2.0, 8.0, 18.0)
+        memo = dense.window_mean_max(dense.Cumulative(
+            remembering, lambda k, lv=level: np.maximum(0.0, lv - k), 0.0, 20.0),
+            2.0, 8.0, 18.0)
+        assert memo == plain
+        counts.append(len(sampled))
+    assert counts[1] - counts[0] < counts[0]
+
+
 @pytest.mark.parametrize("call, message", [
     (lambda: moreno_example_plant(a=-1), "plant.a must be a finite number >= 0, got -1"),
     (lambda: circle_form_plant([[1, 0]], [1], [1], [1], [1], [0, 1], [0]),
