@@ -28,10 +28,13 @@ def quotient_coeffs(psi: np.ndarray, sigma: np.ndarray) -> np.ndarray:
     sigma = np.atleast_1d(np.asarray(sigma, float))
     deg = len(psi) - 1
     out = np.zeros((sigma.size, max(deg, 1)))
+    # each power once (the K~1 search calls this ~30000 times on a few instants, where
+    # the cost is the number of numpy calls); the sums in the same order
+    powers = [sigma ** p for p in range(deg)]
     for j in range(1, deg + 1):
-        acc = np.zeros_like(sigma)
+        acc = np.zeros(sigma.size)
         for k in range(j, deg + 1):
-            acc += psi[k] * comb(k, j) * sigma ** (k - j)
+            acc += psi[k] * comb(k, j) * powers[k - j]
         out[:, j - 1] = -((-1) ** j) * acc
     return out
 
