@@ -53,6 +53,21 @@ def test_spr_exact_known_cases():
     assert not th.spr_exact([0.1, 1], [1, 0.1, 4])
 
 
+def test_compose_is_poly1d_composition_to_the_last_bit():
+    """th.compose (the poly1d arithmetic of spr_exact and shifted, without poly1d objects)
+    gives np.poly1d(p)(np.poly1d(x)).coeffs bit for bit: dtype, length (leading zeros
+    dropped) and values, zero and signed-zero coefficients included."""
+    rng = np.random.default_rng(0)
+    for _ in range(500):
+        p = rng.normal(size=rng.integers(1, 6)) * 10.0 ** rng.uniform(-3, 3)
+        p[rng.random(p.size) < 0.3] = 0.0
+        p[rng.random(p.size) < 0.1] = -0.0
+        for x in (np.array([1j, 0]), np.array([1.0, -rng.uniform(0, 5)]),
+                  np.array([0.0, 2.0]), rng.normal(size=3)):
+            want, got = np.poly1d(p)(np.poly1d(x)).coeffs, th.compose(p, x)
+            assert got.dtype == want.dtype and got.tobytes() == want.tobytes()
+
+
 def test_lmi_7b_linear_sector_toy():
     """(7b) on e' = -e + phi(z), z = e (A_L = -1, G = H_N = 1; phi = K z is stable iff K < 1,
     the circle criterion's sector [0, 1)). With the paper's corner -I (W^T W = I) the LMI
@@ -107,6 +122,34 @@ def test_remark63_window_maximum_between_step_ends():
     assert alpha1 >= brute.max() - 1e-9 and alpha1 == pytest.approx(brute.max(), abs=1e-8)
     assert np.interp(s_best, t, v) == pytest.approx(np.interp(s_best + 2.0, t, v), abs=1e-9)
     assert not np.any(np.isclose(s_best, np.concatenate([t, t - 2.0]), atol=1e-3))
+
+
+def test_remembering_a_quantity_of_the_samples_keeps_every_number():
+    """best_K1t's way (K1(sigma) remembered at each array of instants, varrho of each K~1 a
+    function of it): the windowed mean's maximum on Remembering(run, of) is the plain run's,
+    bit for bit, and the instants asked again for the next level are not sampled again."""
+    t = np.linspace(0, 20, 8)
+    run = GridRun(Trajectory(t, np.sin(t)[:, None], np.zeros((8, 0)), np.zeros((8, 1)),
+                             np.zeros((8, 1)), np.zeros((8, 0)), np.zeros((8, 0)), 0, 20.0,
+                             np.zeros(0)))
+    sampled = []
+
+    def of(s):
+        sampled.append(s.t.size)
+        return s.z[:, 0] ** 2 - 0.3
+
+    remembering = dense.Remembering(run, of)
+    counts = []
+    for level in (0.1, 0.5):
+        plain = dense.window_mean_max(dense.Cumulative(
+            run, lambda s, lv=level: np.maximum(0.0, lv - (s.z[:, 0] ** 2 - 0.3)), 0.0, 20.0),
+            2.0, 8.0, 18.0)
+        memo = dense.window_mean_max(dense.Cumulative(
+            remembering, lambda k, lv=level: np.maximum(0.0, lv - k), 0.0, 20.0),
+            2.0, 8.0, 18.0)
+        assert memo == plain
+        counts.append(len(sampled))
+    assert counts[1] - counts[0] < counts[0]
 
 
 @pytest.mark.parametrize("call, message", [

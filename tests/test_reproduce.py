@@ -137,6 +137,22 @@ def test_null_value_override_is_composed_as_hydra_does():
     assert job_config_yaml(fast) == job_config_yaml(compose(list(overrides)))
 
 
+def test_list_value_override_is_composed_as_hydra_does():
+    """``plant.x0=[1.0,1.0]`` and ``observer.circle.L=[...]`` (Moreno's claims) replace the
+    lists of the composed preset, not composed by Hydra again; the configs are Hydra's."""
+    from hgo.core.config import compose
+    from hgo.running import in_memory
+    from hgo.running.runner import job_config_yaml
+
+    in_memory._compose_base.cache_clear()
+    for overrides in (("experiment=moreno_fig1", "plant.x0=[1.0,1.0]", "plant.a=0.5"),
+                      ("experiment=moreno_fig1", "observer.circle.L=[200.0,20.0]")):
+        fast = in_memory.compose_cached(overrides)
+        assert job_config_yaml(fast) == job_config_yaml(compose(list(overrides)))
+    assert in_memory._compose_base.cache_info().misses == 1  # the preset alone
+    assert list(fast.observer.circle.L) == [200.0, 20.0]
+
+
 def test_tasks_are_handed_out_longest_first_by_the_last_durations(tmp_path, monkeypatch):
     """The durations a reproduce recorded (in the kernel cache) order the next one: the
     longest first, the never-timed before all (in their given order); a claims task counts

@@ -399,9 +399,11 @@ def _record_arrays(n_out: int, widths: tuple[int, ...]) -> list[np.ndarray]:
     page: ~770 page faults, ~1.2 ms of a 40 s Moreno run with a 1 ms grid (benchmarks/).
     """
     block = np.empty(n_out * sum(widths))
-    starts = np.cumsum((0, *widths)) * n_out
-    return [block[a:b].reshape(n_out, k) for a, b, k in zip(starts[:-1], starts[1:], widths,
-                                                            strict=True)]
+    arrays, start = [], 0
+    for k in widths:  # (Python ints, not np.cumsum: ~20 us less a call of StepRecord.at)
+        arrays.append(block[start:start + n_out * k].reshape(n_out, k))
+        start += n_out * k
+    return arrays
 
 
 @dataclass(frozen=True)

@@ -234,16 +234,20 @@ class Cumulative:
 class Remembering:
     """A run whose ``at`` remembers the samples at each array of instants it was asked for:
     for measuring many signals of one run on the same points one after the other (each
-    new :class:`Cumulative` samples the same Gauss nodes)."""
+    new :class:`Cumulative` samples the same Gauss nodes). With ``of``, ``at`` gives (and
+    remembers) ``of(samples)`` instead: a quantity every one of those signals is made from,
+    computed once per array of instants; the signals are then functions of it."""
 
-    def __init__(self, run: DenseRun) -> None:
-        self.run, self._seen = run, {}
+    def __init__(self, run: DenseRun, of: Callable[[Trajectory], object] | None = None
+                 ) -> None:
+        self.run, self.of, self._seen = run, of, {}
 
-    def at(self, ts: np.ndarray) -> Trajectory:
+    def at(self, ts: np.ndarray):
         ts = np.ascontiguousarray(ts, float)
         key = ts.tobytes()
         if key not in self._seen:
-            self._seen[key] = self.run.at(ts)
+            samples = self.run.at(ts)
+            self._seen[key] = samples if self.of is None else self.of(samples)
         return self._seen[key]
 
     def boundaries(self, a: float, b: float) -> np.ndarray:
@@ -281,8 +285,12 @@ def window_mean_max(cum: Cumulative, window: float, a: float, b: float
 
     g = _values(pair, slope, scan)
     k = np.flatnonzero((g[:-1] > 0) & (g[1:] <= 0))
-    points = np.concatenate([scan, _roots(pair, slope, 0.0, scan[k], scan[k + 1])])
-    means = (cum(points + window) - cum(points)) / window
+    roots = _roots(pair, slope, 0.0, scan[k], scan[k + 1])
+    points = np.concatenate([scan, roots])
+    # the scan's means apart from the roots': on a Remembering run the scan's instants are
+    # sampled once for every signal (each instant's I is computed alone, the same either way)
+    means = np.concatenate([(cum(p + window) - cum(p)) / window for p in (scan, roots)
+                            if p.size])
     best = int(np.argmax(means))
     return float(means[best]), float(points[best])
 

@@ -324,15 +324,17 @@ def best_K1t(es: ErrorSystem, K1a: float, run: dense.DenseRun | dense.GridRun,
     from hgo.papers.moreno.theory import eps_max_fd
 
     c = float(-2 * es.H_N @ es.G)
-    run = dense.Remembering(run)  # the steps' Gauss nodes and the scan: sampled once
+    # K1(sigma) at the steps' Gauss nodes and the scan: sampled and computed once for all
+    # the K~1 (varrho of each K~1 is a function of it)
+    k1_run = dense.Remembering(run, lambda s: sector_lower(psi, sigma(s)))
     best = (-math.inf, math.nan, math.nan, math.nan)
     for K1t in K1a + span * np.arange(1, n + 1) / n:
         eps = eps_max_fd(es, K1t)
 
-        def varrho(s, K1t=K1t):
-            return c * np.maximum(0.0, K1t - sector_lower(psi, sigma(s)))
+        def varrho(k1, K1t=K1t):
+            return c * np.maximum(0.0, K1t - k1)
 
-        alpha1 = _alpha1(dense.Cumulative(run, varrho, 0.0, t_f), window)
+        alpha1 = _alpha1(dense.Cumulative(k1_run, varrho, 0.0, t_f), window)
         if eps - alpha1 > best[0]:
             best = (eps - alpha1, float(K1t), eps, alpha1)
     return best[1], best[2], best[3]

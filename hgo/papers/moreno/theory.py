@@ -203,23 +203,53 @@ def _hurwitz(poly: np.ndarray) -> bool:
     return bool(np.all(r.real < 0))
 
 
+# np.poly1d's arithmetic on plain arrays, the same numpy operations in the same order (so
+# the same numbers to the last bit), without its objects: poly1d and np.trim_zeros cost
+# ~1 ms an SPR test, and eps_max_fd makes thousands (the K~1 search of C14)
+def _from_first_nonzero(c: np.ndarray) -> np.ndarray:
+    """``np.trim_zeros(c, "f")`` of a 1-d array (empty if every entry is zero)."""
+    nonzero = np.flatnonzero(c)
+    return c[nonzero[0]:] if nonzero.size else c[:0]
+
+
+def _poly1d_coeffs(c) -> np.ndarray:
+    """``np.poly1d(c).coeffs``: leading zeros dropped, ``[0]`` if nothing is left."""
+    c = _from_first_nonzero(np.atleast_1d(c))
+    return c if c.size else np.zeros(1, c.dtype)
+
+
+def compose(p: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """p(x(s)) (descending coefficients): ``np.poly1d(p)(np.poly1d(x)).coeffs``, by numpy's
+    Horner scheme on poly1d (``y = y * x + pv`` from ``y = 0``, every intermediate in
+    poly1d's form)."""
+    x = _poly1d_coeffs(x)
+    y = _poly1d_coeffs(0 * x)
+    for k, pv in enumerate(_poly1d_coeffs(np.asarray(p))):
+        if k:
+            y = _poly1d_coeffs(np.convolve(y, x))
+        y = _poly1d_coeffs(np.polyadd(y, _poly1d_coeffs(pv)))
+    return y
+
+
+_JW = np.array([1j, 0])  # s = j w
+
+
 def spr_exact(num: np.ndarray, den: np.ndarray) -> bool:
     """Exact SPR test of num/den (Khalil, Nonlinear Systems 3rd ed., Lemma 6.1), no grid:
     den Hurwitz; q(w) = Re[n(jw) conj(d(jw))] > 0 for all w >= 0 (an even polynomial:
     q(0) > 0 and no positive real root in w^2); relative degree 0 with H(inf) > 0, or
     relative degree 1 with the leading coefficient of q positive."""
-    num = np.trim_zeros(np.asarray(num, float), "f")
-    den = np.trim_zeros(np.asarray(den, float), "f")
+    num = _from_first_nonzero(np.asarray(num, float))
+    den = _from_first_nonzero(np.asarray(den, float))
     if num.size == 0 or not _hurwitz(den):
         return False
     reldeg = den.size - num.size
     if reldeg not in (0, 1):
         return False
     # n(jw) conj d(jw): evaluate the real part as a polynomial in w
-    jn = np.poly1d(num)(np.poly1d([1j, 0]))
-    jd = np.poly1d(den)(np.poly1d([1j, 0]))
-    q = np.real((jn * np.poly1d(np.conj(jd.coeffs))).coeffs)
-    q = np.trim_zeros(np.where(np.abs(q) < 1e-12 * np.max(np.abs(q)), 0.0, q), "f")
+    jn, jd = compose(num, _JW), compose(den, _JW)
+    q = np.real(_poly1d_coeffs(np.convolve(jn, _poly1d_coeffs(np.conj(jd)))))
+    q = _from_first_nonzero(np.where(np.abs(q) < 1e-12 * np.max(np.abs(q)), 0.0, q))
     if q.size == 0 or q[-1] <= 0:
         return False
     if reldeg == 0 and num[0] / den[0] <= 0:
@@ -242,7 +272,7 @@ def loop_transformed(num: np.ndarray, den: np.ndarray, rho: float) -> tuple[np.n
 
 def shifted(poly: np.ndarray, mu: float) -> np.ndarray:
     """p(s - mu)."""
-    return np.poly1d(poly)(np.poly1d([1.0, -mu])).coeffs
+    return compose(poly, np.array([1.0, -mu]))
 
 
 def k1a_fd(es: ErrorSystem, lo: float = -1e3, hi: float = 1e3, tol: float = 1e-12) -> float:
