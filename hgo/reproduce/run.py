@@ -113,7 +113,7 @@ def run_job(overrides: tuple[str, ...], job_dir: str, key: str, cfg=None) -> dic
 def run_claims(paper: str, path: str) -> dict:
     """Every claim of ``paper``, measured; saved to ``path`` as JSON."""
     from hgo.core.registry import all_claims
-    from hgo.running.in_memory import run_in_memory, run_rows
+    from hgo.running.in_memory import forget_runs
 
     _silence_logs()
     results = {}
@@ -130,8 +130,7 @@ def run_claims(paper: str, path: str) -> dict:
         entry["seconds"] = time.perf_counter() - t0
         results[c.id] = entry
     Path(path).write_text(json.dumps(results, indent=1))
-    run_in_memory.cache_clear()  # (the runs of one paper's claims; the next task's differ)
-    run_rows.cache_clear()
+    forget_runs()  # (the runs of one paper's claims; the next task's differ)
     return results
 
 

@@ -7,6 +7,7 @@ caches the result so that claims that need the same run share it.
 from __future__ import annotations
 
 import functools
+from collections import OrderedDict
 
 
 @functools.lru_cache(maxsize=1024)  # (small dicts: AK's trade-off sweeps ask for 80 runs twice)
@@ -18,12 +19,33 @@ def run_rows(overrides: tuple[str, ...]) -> dict[tuple[str, str], float]:
             for r in run_in_memory(overrides).metrics.to_dict("records")}
 
 
-@functools.lru_cache(maxsize=16)  # (every run of a paper's claims: 14 at most, Moreno/APA)
-def run_in_memory(overrides: tuple[str, ...]):
-    """The run of ``overrides`` without files: a :class:`hgo.running.runner.MemoryRun`."""
-    from hgo.running.runner import simulate_config
+RUNS_KEPT = 16  # (every run of a paper's claims: 14 at most, Moreno/APA)
+_runs: OrderedDict[str, object] = OrderedDict()  # composed config -> its run, latest last
 
-    return simulate_config(compose_cached(overrides))
+
+@functools.lru_cache(maxsize=RUNS_KEPT)
+def run_in_memory(overrides: tuple[str, ...]):
+    """The run of ``overrides`` without files: a :class:`hgo.running.runner.MemoryRun`.
+    Runs are kept by their composed config, so overrides that compose the same config
+    share one run (Dimassi et al.'s claims ask for the nominal run in four spellings)."""
+    from hgo.running.runner import job_config_yaml, simulate_config
+
+    cfg = compose_cached(overrides)
+    key = job_config_yaml(cfg)
+    if key not in _runs:
+        _runs[key] = simulate_config(cfg)
+        if len(_runs) > RUNS_KEPT:
+            _runs.popitem(last=False)
+    _runs.move_to_end(key)
+    return _runs[key]
+
+
+def forget_runs() -> None:
+    """Drop every kept run (:func:`run_in_memory`, :func:`run_rows`): the next paper's
+    claims ask for other runs."""
+    run_in_memory.cache_clear()
+    run_rows.cache_clear()
+    _runs.clear()
 
 
 def compose_cached(overrides: tuple[str, ...]):

@@ -320,8 +320,9 @@ class DHLMMetrics:
         plant = system.plant
         x = traj.z[:, :plant.nx]
         dx = np.empty_like(x)
+        p = plant.p.record() if plant.params else plant.p  # every name read once
         for j in range(len(traj.t)):
-            plant.f(traj.t[j], x[j], traj.u[j], plant.p, dx[j])
+            plant.f(traj.t[j], x[j], traj.u[j], p, dx[j])
         H, Bz2 = blk["H"], blk["Bz2"]
         first = blk["first"].astype(int)
         hs = np.zeros((len(traj.t), H.shape[0]))
