@@ -169,4 +169,6 @@ def all_claims(papers: list[str] | None = None) -> list[Claim]:
     ``claims`` modules only (Moreno's imports cvxpy: ~1.5 s in each worker of ``hgo
     reproduce`` that measures another paper's claims), in paper then definition order."""
     paper_modules("claims", papers)
-    return [c for c in _REGISTRY.values() if papers is None or c.paper in papers]
+    order = {paper: k for k, paper in enumerate(paper_names())}  # (modules import on demand)
+    chosen = [c for c in _REGISTRY.values() if papers is None or c.paper in papers]
+    return sorted(chosen, key=lambda c: order.get(c.paper, len(order)))  # stable: definitions
