@@ -130,6 +130,15 @@ def dop853_kernel(rhs, nz: int, errors, n_est: int):
         return min(100.0 * h0, h1, h_max)
 
     @numba.njit(inline="always")
+    def extension(x, z, F, i):
+        """State i at the fraction x of the step: scipy's Dop853DenseOutput, Horner form."""
+        s = 1.0 - x
+        v = F[N_F - 1, i]
+        for c in range(N_F - 2, -1, -1):
+            v = F[c, i] + (s if c % 2 == 0 else x) * v
+        return z[i] + x * v
+
+    @numba.njit(inline="always")
     def largest_norm(sq, metrics, n_sq):
         """metrics[n_sq] = max(metrics[n_sq], ||x^ - x||) from the squared errors sq[:n_est]."""
         norm2 = 0.0
@@ -144,13 +153,8 @@ def dop853_kernel(rhs, nz: int, errors, n_est: int):
         n_sq = sq.shape[0]
         for q in range(3):
             tq = a + (b - a) * GAUSS_NODES[q]
-            x = (tq - t) / h
-            s = 1.0 - x
             for i in range(nz):
-                v = F[N_F - 1, i]
-                for c in range(N_F - 2, -1, -1):
-                    v = F[c, i] + (s if c % 2 == 0 else x) * v
-                zo[i] = z[i] + x * v
+                zo[i] = extension((tq - t) / h, z, F, i)
             errors(tq, zo, p, m, sq)
             largest_norm(sq, metrics, n_sq)
             for j in range(n_sq):
@@ -213,13 +217,8 @@ def dop853_kernel(rhs, nz: int, errors, n_est: int):
                     if not prepared:
                         dense(t, hh, z, zt, p, m, K, F, scratch)
                         prepared = True
-                    x = (k_out * dt_out - t) / hh
-                    s = 1.0 - x
-                    for i in range(nz):  # scipy's Dop853DenseOutput, Horner form
-                        acc = F[N_F - 1, i]
-                        for q in range(N_F - 2, -1, -1):
-                            acc = F[q, i] + (s if q % 2 == 0 else x) * acc
-                        rec[k_out, i] = z[i] + x * acc
+                    for i in range(nz):
+                        rec[k_out, i] = extension((k_out * dt_out - t) / hh, z, F, i)
                     k_out += 1
                 for i in range(nz):
                     z[i] = zt[i]

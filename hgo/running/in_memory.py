@@ -23,15 +23,14 @@ RUNS_KEPT = 16  # (every run of a paper's claims: 14 at most, Moreno/APA)
 _runs: OrderedDict[str, object] = OrderedDict()  # composed config -> its run, latest last
 
 
-@functools.lru_cache(maxsize=RUNS_KEPT)
 def run_in_memory(overrides: tuple[str, ...]):
     """The run of ``overrides`` without files: a :class:`hgo.running.runner.MemoryRun`.
-    Runs are kept by their composed config, so overrides that compose the same config
-    share one run (Dimassi et al.'s claims ask for the nominal run in four spellings)."""
-    from hgo.running.runner import job_config_yaml, simulate_config
+    The last :data:`RUNS_KEPT` runs are kept by their composed config, so overrides that
+    compose the same config share one run (Dimassi et al.'s claims ask for the nominal run
+    in four spellings)."""
+    from hgo.running.runner import simulate_config
 
-    cfg = compose_cached(overrides)
-    key = job_config_yaml(cfg)
+    key, cfg = _composed(overrides)
     if key not in _runs:
         _runs[key] = simulate_config(cfg)
         if len(_runs) > RUNS_KEPT:
@@ -40,10 +39,19 @@ def run_in_memory(overrides: tuple[str, ...]):
     return _runs[key]
 
 
+@functools.lru_cache(maxsize=64)
+def _composed(overrides: tuple[str, ...]):
+    """(the job config's YAML, the composed config) of ``overrides``."""
+    from hgo.running.runner import job_config_yaml
+
+    cfg = compose_cached(overrides)
+    return job_config_yaml(cfg), cfg
+
+
 def forget_runs() -> None:
     """Drop every kept run (:func:`run_in_memory`, :func:`run_rows`): the next paper's
     claims ask for other runs."""
-    run_in_memory.cache_clear()
+    _composed.cache_clear()
     run_rows.cache_clear()
     _runs.clear()
 
