@@ -115,8 +115,21 @@ def _run_cli(args: list[str], tmp_path: Path) -> subprocess.Popen:
                             stderr=subprocess.PIPE, text=True)
 
 
+def _cpu_seconds(pid: int) -> float:
+    """CPU seconds (user + system) of process ``pid`` so far (Linux: /proc)."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rpartition(")")[2].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+KERNEL_LOADED_CPU_S = 3.0  # loading the cached kernel takes ~0.6-1 CPU second (numba's
+# registries, scipy.linalg) after "integrating" is logged: 3 CPU seconds on, it has run
+
+
 def _start_long_run(run_dir: Path, tmp_path: Path) -> subprocess.Popen:
-    """A 1e8-step integration into ``run_dir``, returned 1 s after it logs "integrating"."""
+    """A 1e8-step integration into ``run_dir``, returned once the process has used
+    ``KERNEL_LOADED_CPU_S`` more CPU seconds after it logs "integrating" (CPU, not wall
+    time: on a loaded machine a fixed 1 s wait sent the signal while numba was still
+    loading the kernel, and the run stopped at t = 0), and at least 1 s after."""
     import time
 
     proc = _run_cli(["experiment=sp_oscillation", "postprocess=none", "solver.t_end=100000",
@@ -125,7 +138,10 @@ def _start_long_run(run_dir: Path, tmp_path: Path) -> subprocess.Popen:
     for line in proc.stdout:
         if "integrating" in line:
             break
-    time.sleep(1.0)
+    start, t0 = _cpu_seconds(proc.pid), time.perf_counter()
+    while (_cpu_seconds(proc.pid) - start < KERNEL_LOADED_CPU_S
+           or time.perf_counter() - t0 < 1.0) and proc.poll() is None:
+        time.sleep(0.05)
     return proc
 
 
