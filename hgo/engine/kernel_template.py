@@ -46,8 +46,9 @@ parameters: the step shrinks to underflow on NaN error norms), 5 step limit
 ``ctl[1]`` reached, 6 interrupted (``ctl[0]`` set by another thread: Ctrl-C). ``ctl`` is
 checked after every step (a load): the run stops within one step of a request, without
 any change to the integration itself.
-The record arrays (Z, D, Y, M, U, XH) are filled only when they have rows (an ensemble
-passes empty ones and keeps only the metric accumulators).
+The record arrays (T, Z, D, Y, M, U, XH) are filled only when they have rows (an ensemble
+passes empty ones and keeps only the metric accumulators); T gets output k's instant as
+k * dt_out (the grid's own value, also where the run ends at t_end).
 
 Step record ``SR`` (adaptive methods, when it has rows): one row per accepted step,
 ``[t, h, z (NZ), F (N_F * NZ), d, m]``: the step's start, length, start state, the
@@ -171,6 +172,13 @@ def _emit(k, t, z, d, m, P, w, y, u, xh, Z, D, Y, M, U, XH):
 
 
 @ijit
+def _stamp(T, k, dt_out):
+    """Output sample k's instant on the grid, k * dt_out, into ``T`` (when it has rows)."""
+    if T.shape[0] > 0:
+        T[k] = k * dt_out
+
+
+@ijit
 def _point_errors(z, y, xh, sq, acc):
     """The squared errors at one point into ``sq``: (x^_j - x_j)^2 per estimated state, then
     (y^ - y)^2 per observer; and each observer's error norm ||x^ - x|| into its running
@@ -222,13 +230,14 @@ def integrate_ensemble(Z0, D0, PP, noise, noise_dt, BR, t_end, dt_out, h_max, rt
     Records (ZR..XHR, (members, n_out, k)) are filled only when they have rows; otherwise
     metrics only. ``ctl`` is shared and only read (``SR`` is empty: no step record)."""
     n_members = Z0.shape[0]
+    no_times = np.empty(0)  # (the members share one grid: the caller makes it)
     for i in prange(n_members):
         z = Z0[i].copy()
         d = D0[i].copy()
         st, n_rec, t_stop = integrate(z, d, PP[i], noise[i], noise_dt, BR[i], t_end, dt_out,
-                                      h_max,
-                                      rtol, atol, stab, RHO[i], bound, t_window, ZR[i],
-                                      DR[i], YR[i], MR[i], UR[i], XHR[i], ACC[i], SR, ctl)
+                                      h_max, rtol, atol, stab, RHO[i], bound, t_window,
+                                      no_times, ZR[i], DR[i], YR[i], MR[i], UR[i], XHR[i],
+                                      ACC[i], SR, ctl)
         STATUS[i] = st
         T_STOP[i] = t_stop
         N_REC[i] = n_rec
@@ -256,7 +265,7 @@ def _rk4_step(t, h, z, d, m, P, w, k1, k2, k3, k4, zt, t_lim):
 
 @jit
 def integrate(z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol, stab,
-              rho_const, bound, t_window, Z, D, Y, M, U, XH, acc, SR, ctl):
+              rho_const, bound, t_window, T, Z, D, Y, M, U, XH, acc, SR, ctl):
     """Integrate one run (RK4). Returns (status, number of output samples, stop time).
 
     One compiled function (no wrapper around an inner one): every extra level of numba
@@ -265,7 +274,8 @@ def integrate(z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol
     """
     work = np.zeros(5 * z.shape[0] + N_COMMON_WORK)
     z, d, P, noise, acc = borrow(z), borrow(d), borrow(P), borrow(noise), borrow(acc)
-    Z, D, Y, M, U, XH = borrow(Z), borrow(D), borrow(Y), borrow(M), borrow(U), borrow(XH)
+    T, Z, D, Y, M = borrow(T), borrow(Z), borrow(D), borrow(Y), borrow(M)
+    U, XH = borrow(U), borrow(XH)
     nz = NZ
     k1 = view(work, 0, nz)
     k2 = view(work, nz, 2 * nz)
@@ -278,6 +288,7 @@ def integrate(z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol
     k_noise = 0
     status, n_out, tol, t_win0 = _start(z, d, m, P, w, y, u, xh, sq, prev, acc, win, noise,
                                         bound, t_end, dt_out, t_window, Z, D, Y, M, U, XH)
+    _stamp(T, 0, dt_out)
     if status != 0:
         return status, 1, t
     k_break = _pass_breaks(breaks, 0, t, tol)
@@ -334,6 +345,7 @@ def integrate(z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol
             if t_out <= t + tol:
                 break
         _emit(k_out, t, z, d, m, P, w, y, u, xh, Z, D, Y, M, U, XH)
+        _stamp(T, k_out, dt_out)
     return 0, n_out, t
 
 
@@ -464,7 +476,7 @@ def _window_step(t, h, a, b, z, d, m, P, w, y, xh, sq, acc, F, zo):
 
 @jit
 def integrate(z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol, stab,
-              rho_const, bound, t_window, Z, D, Y, M, U, XH, acc, SR, ctl):
+              rho_const, bound, t_window, T, Z, D, Y, M, U, XH, acc, SR, ctl):
     """Integrate one run (adaptive). Returns (status, number of output samples, stop time).
 
     One compiled function, as for RK4 (``stab`` and ``rho_const`` are unused here).
@@ -473,7 +485,8 @@ def integrate(z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol
     """
     work = np.zeros((N_K + N_F + 2) * z.shape[0] + d.shape[0] + N_COMMON_WORK)
     z, d, P, noise, acc = borrow(z), borrow(d), borrow(P), borrow(noise), borrow(acc)
-    Z, D, Y, M, U, XH = borrow(Z), borrow(D), borrow(Y), borrow(M), borrow(U), borrow(XH)
+    T, Z, D, Y, M = borrow(T), borrow(Z), borrow(D), borrow(Y), borrow(M)
+    U, XH = borrow(U), borrow(XH)
     nz = NZ
     nd = d.shape[0]
     K = view(work, 0, N_K * nz)
@@ -490,6 +503,7 @@ def integrate(z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol
     k_noise = 0
     status, n_out, tol, t_win0 = _start(z, d, m, P, w, y, u, xh, sq, prev, acc, win, noise,
                                         bound, t_end, dt_out, t_window, Z, D, Y, M, U, XH)
+    _stamp(T, 0, dt_out)
     if status != 0:
         return status, 1, t
     k_out = np.int64(1)
@@ -554,6 +568,7 @@ def integrate(z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol
                         prepared = True
                     _dense_eval((t_o - t) / hh, z, F, zo)
                     _emit(k_out, t_o, zo, d, m, P, w, y, u, xh, Z, D, Y, M, U, XH)
+                    _stamp(T, k_out, dt_out)
                 k_out += 1
             for i in range(nz):
                 z[i] = zt[i]
@@ -596,5 +611,6 @@ def integrate(z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol
                 restart = True
         while k_out < n_out and k_out * dt_out <= t + tol:  # at the event, after it
             _emit(k_out, t, z, d, m, P, w, y, u, xh, Z, D, Y, M, U, XH)
+            _stamp(T, k_out, dt_out)
             k_out += 1
     return 0, n_out, t

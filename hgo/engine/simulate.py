@@ -363,15 +363,13 @@ def simulate(system: System, solver: SolverSettings, noise: Noise,
         acc = np.zeros(system.n_acc())
         status, n_rec, t_stop = _call(
             system, solver.method, "integrate", z.copy(), system.d0(), P,
-            np.ascontiguousarray(noise.samples, float), args[0], breaks, *args[1:], *rec, acc,
-            steps, ctl, noisy=noisy)
+            np.ascontiguousarray(noise.samples, float), args[0], breaks, *args[1:], t[:, 0],
+            *rec, acc, steps, ctl, noisy=noisy)
         if ctl[2] <= cap:
             break
         cap = int(ctl[2])
-    t = t[:n_rec, 0]
-    # k * dt_out into the record's own column: one temporary, not two (~0.1 ms of a
-    # 20,000-sample run; benchmarks/hand_bench.py)
-    np.multiply(np.arange(n_rec, dtype=float), solver.dt_out, out=t)
+    t = t[:n_rec, 0]  # k * dt_out, written by the kernel (~0.1 ms less than numpy after
+    # the run, its caches cold: benchmarks/hand_bench.py)
     Z, D, Y, M, U, XH = (a[:n_rec] for a in rec)
     dense = DenseRun(system, [StepRecord(system, solver.method, P, steps[:ctl[2]], noisy)]) \
         if keep else None
