@@ -20,7 +20,7 @@ from scipy import signal
 
 from hgo.observers.collection import sp_collection
 from hgo.observers.triangular import triangular_hgo
-from hgo.postprocess.notch import discrete_notch, filter_signal
+from hgo.postprocess.notch import discrete_notch, filter_signal, notch_state_space
 from hgo.postprocess.oscillation import spectral_period, zero_crossing_period
 from hgo.running.runner import build, run, run_experiment
 
@@ -251,6 +251,17 @@ def test_notch_foh_is_exact_for_the_output_grid():
     wrong = discrete_notch(w0, 0.0, 1.0, 2 * dt, "foh")  # designed for 0.02 s, fed 0.01 s
     y2 = filter_signal(np.sin(w0 * t)[:, None], wrong, "zero")[:, 0]
     assert np.ptp(y2[t > 40]) > 0.3
+
+
+@pytest.mark.parametrize("w0, phi1, phi2", [(2 * np.pi / 2.23, 0.0, 1.0),
+                                             (3.7, 0.15, 0.8), (0.01, 1e-3, 2.5)])
+def test_notch_state_space_is_scipys_tf2ss_bit_for_bit(w0, phi1, phi2):
+    """hgo writes T(s)'s controller canonical form itself (no scipy.signal import); it equals
+    ``scipy.signal.tf2ss`` exactly, for the paper's notch and two other (w0, phi1, phi2)."""
+    A, B, C, D = signal.tf2ss([1.0, 2 * phi1 * w0, w0**2], [1.0, 2 * phi2 * w0, w0**2])
+    a, b, c, d = notch_state_space(w0, phi1, phi2)
+    assert np.array_equal(a, A) and np.array_equal(b, B[:, 0])
+    assert np.array_equal(c, C[0]) and d == D[0, 0]
 
 
 def test_oscillation_measures_on_a_known_signal():
