@@ -437,6 +437,7 @@ class CertificateDesign:
                          "['half_min_eig', 'min_eig', 'sharp']")
 
 
+@disk_cached  # (a warm run then imports no cvxpy: ~0.55 s)
 def certificate_design(es: ErrorSystem, K1: float, delta: float = 0.1,
                        eps_fraction: float = 0.99, K1t: float | None = None,
                        regularisation: str = "margin", mu: float = 1e-7) -> CertificateDesign:
