@@ -221,3 +221,16 @@ def test_certificate_design_does_not_depend_on_earlier_solves():
     after = th.certificate_design(es, -2.0)
     assert after.K1t == fresh.K1t and after.lam_m == fresh.lam_m
     assert np.array_equal(after.P, fresh.P)
+
+
+@pytest.mark.parametrize("gains", [(2, 200, 120, 0), (2, 200, 120, 0.5), (1, 30, 5, -1.0)])
+def test_transfer_is_scipys_ss2tf_bit_for_bit(gains):
+    """The error system's G(s) (hgo's SISO ss2tf, no scipy.signal import) equals
+    ``scipy.signal.ss2tf`` exactly, for the Section 5 gains and two other (k, l1, l2, a)."""
+    from scipy import signal
+
+    es = example_error_system(*gains)
+    num, den = signal.ss2tf(es.A_L, -es.G.reshape(-1, 1), es.H_N.reshape(1, -1),
+                            np.zeros((1, 1)))
+    mine_num, mine_den = th.ss2tf_siso(es.A_L, -es.G, es.H_N)
+    assert np.array_equal(mine_num, num[0]) and np.array_equal(mine_den, den)

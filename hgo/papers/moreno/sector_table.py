@@ -17,7 +17,6 @@ import pandas as pd
 
 from hgo.engine.simulate import Trajectory
 from hgo.engine.system import System
-from hgo.outputs.figures import save_figure
 from hgo.papers.moreno.theory import (
     ErrorSystem,
     eps_max_fd,
@@ -124,9 +123,9 @@ def gains_label(name: str, sep: str = "\n") -> str:
 def sector_figure(result, path) -> None:
     """``sector_table.csv`` beside ``path`` and a figure: K1^a by SDP / exact SPR / closed
     form per gain set, and eps_max(rho) by LMI and by the SPR test."""
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # (only when drawing: a claims task draws nothing)
 
-    from hgo.outputs.figures import PALETTE
+    from hgo.outputs.figures import PALETTE, save_figure
 
     table = wide_table(result.metrics)
     table.to_csv(path.with_suffix(".csv"))

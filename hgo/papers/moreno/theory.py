@@ -34,7 +34,6 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import signal
 
 from hgo.core.lmi import LazyCvxpy, bisect, sym
 from hgo.core.memo import disk_cached
@@ -43,6 +42,17 @@ cp = LazyCvxpy()  # imported by the first LMI solved, not with this module
 
 SOLVER = "CLARABEL"
 FEAS_TOL = 1e-9  # t* >= -FEAS_TOL: (7a) feasible (non-strict)
+
+
+def ss2tf_siso(A: np.ndarray, B: np.ndarray, C: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """C (sI - A)^-1 B as (numerator, denominator), descending powers, for one input and
+    one output (D = 0): the operations of ``scipy.signal.ss2tf`` (den = poly(A), num =
+    poly(A - B C) + (D - 1) den), so the same bits (the test compares them), without
+    importing ``scipy.signal`` (~1 s of every Moreno claims task and theory row)."""
+    A = np.asarray(A, float)
+    B, C = np.asarray(B, float).reshape(-1, 1), np.asarray(C, float).reshape(1, -1)
+    den = np.poly(A)
+    return np.poly(A - np.dot(B, C)) + (np.zeros(1) - 1) * den, den
 
 
 @dataclass(frozen=True)
@@ -71,9 +81,8 @@ class ErrorSystem:
 
     def transfer(self) -> tuple[np.ndarray, np.ndarray]:
         """G(s) = -H_N (sI - A_L)^-1 G as (numerator, denominator), descending powers."""
-        num, den = signal.ss2tf(self.A_L, -self.G.reshape(-1, 1), self.H_N.reshape(1, -1),
-                                np.zeros((1, 1)))
-        return np.trim_zeros(num[0], "f"), den
+        num, den = ss2tf_siso(self.A_L, -self.G, self.H_N)
+        return np.trim_zeros(num, "f"), den
 
     def check_kyp(self) -> bool:
         """(A_L, G) controllable and (A_L, H_N) observable (the KYP lemma's hypotheses,
