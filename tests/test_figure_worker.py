@@ -31,6 +31,7 @@ RUN_AND_REPORT = textwrap.dedent('''
 
 FIGURES = textwrap.dedent('''
     import os
+    import sys
     from pathlib import Path
 
     def pid(result, path):
@@ -41,15 +42,36 @@ FIGURES = textwrap.dedent('''
 
     def dies(result, path):
         os._exit(3)
+
+    def app_imported(result, path):
+        Path(path).write_text(str("hgo.cli.app" in sys.modules))
 ''')
 
 
-def hgo_run(tmp_path: Path, *overrides: str) -> subprocess.CompletedProcess:
+def hgo_run(tmp_path: Path, *overrides: str, **kwargs) -> subprocess.Popen:
+    """The run, ended; its ``returncode``, ``stdout``, ``stderr`` and ``pid``."""
     (tmp_path / "user_figures.py").write_text(FIGURES)
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tmp_path), str(ROOT)])}
     env.pop("HYDRA_FULL_ERROR", None)
-    return subprocess.run([sys.executable, "-c", RUN_AND_REPORT, *overrides], cwd=tmp_path,
-                          env=env, capture_output=True, text=True, timeout=300)
+    proc = subprocess.Popen([sys.executable, "-c", RUN_AND_REPORT, *overrides], cwd=tmp_path,
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            **kwargs)
+    proc.stdout, proc.stderr = proc.communicate(timeout=300)
+    return proc
+
+
+def session_processes(sid: int) -> list[int]:
+    """The processes of session ``sid`` still there (``/proc/<pid>/stat``: ``pid (comm)
+    state ppid pgrp session ...``)."""
+    found = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:  # (ended meanwhile)
+            continue
+        if int(fields[3]) == sid:
+            found.append(int(stat.parent.name))
+    return found
 
 
 def test_forked_figure_is_the_in_process_one_and_the_run_never_imports_matplotlib(tmp_path):
@@ -124,3 +146,24 @@ def test_drawing_view_keeps_both_ends_and_every_extreme_of_a_long_run(tmp_path, 
         np.testing.assert_array_equal(small.values.min(axis=0), full.values.min(axis=0))
         np.testing.assert_array_equal(small.values.max(axis=0), full.values.max(axis=0))
     np.testing.assert_array_equal(view.trajectory.xh[-50:], result.trajectory.xh[-50:])
+
+
+@pytest.mark.parametrize("overrides, code", [
+    ((*SHORT, "+figures.modules._target_=user_figures.app_imported"), 0),  # takes it
+    (("experiment=sp_fig1", "observer=no_such_observer"), 2),  # a config error
+    (("experiment=sp_ensemble", "ensemble.size=2", "solver.t_end=1", "metrics.window=0.5"),
+     0),  # an ensemble
+])
+def test_the_figure_process_forked_at_start_up_draws_or_ends_with_the_run(tmp_path, overrides,
+                                                                            code):
+    """``hgo run`` forks its figure process before it imports its Hydra app (the figure
+    of a single run, drawn there, finds ``hgo.cli.app`` not imported); a run that does not
+    take it (a configuration error, an ensemble, whose reports are drawn in the run's own
+    process) ends it: no process of the run's session is left when the run has exited."""
+    out = tmp_path / "run"
+    proc = hgo_run(tmp_path, *overrides, f"hydra.run.dir={out}", start_new_session=True)
+    assert proc.returncode == code, proc.stderr[-2000:]
+    assert session_processes(proc.pid) == []
+    if any(o.startswith("+figures.modules") for o in overrides):
+        assert (out / "modules.png").read_text() == "False"
+        assert (out / "fig1.png").is_file() and (out / ".hgo_done").is_file()

@@ -25,6 +25,17 @@ def run_app(args: list[str], prog: str = "hgo run") -> int:
     """``hgo run``: the Hydra application (:mod:`hgo.cli.app`) on ``args``; ``prog`` is the
     command name Hydra and ``run.json`` see (``experiments/run.py`` passes its own)."""
     user_modules_importable()
+    from hgo.running.figure_worker import discard_prestarted, prestart
+
+    if single_run(args):  # its figure process prepares while this one imports and runs
+        prestart()
+    try:
+        return _run_hydra_app(args, prog)
+    finally:
+        discard_prestarted()
+
+
+def _run_hydra_app(args: list[str], prog: str) -> int:
     from hgo.core.memory import collection_paused
 
     with collection_paused():  # imports make ~1M lasting objects, no garbage: ~0.07 s
@@ -48,6 +59,14 @@ def run_app(args: list[str], prog: str = "hgo run") -> int:
     signal.signal(signal.SIGTERM, signal.default_int_handler)
     cli_main()
     return 0
+
+
+def single_run(args: list[str]) -> bool:
+    """Whether the command line asks for one run: no sweep (``-m``, ``hydra.mode``), none
+    of Hydra's other modes, no help. (A preset may still make it a sweep: the run then
+    discards the figure process it did not need.)"""
+    keys = {a.partition("=")[0] for a in args}
+    return not (keys & (set(MODES) | {"-h", "--help", "--hydra-help", "hydra.mode"}))
 
 
 # Hydra's modes, of which a command line takes one (Hydra itself raises a ValueError)

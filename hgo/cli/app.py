@@ -24,6 +24,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from hgo.core.config import conf_dir, register_configs
 from hgo.outputs.console import job_line
+from hgo.running.figure_worker import discard_prestarted
 from hgo.running.job import EXIT_CONFIG, is_complete, last_error, one_line_errors, run_job
 
 register_configs()
@@ -96,6 +97,7 @@ def main(cfg: DictConfig) -> None:
     multirun = hc.mode == RunMode.MULTIRUN
     if multirun:  # one line per job on the console; the table is in metrics.csv
         logging.getLogger("hgo").setLevel(logging.WARNING)
+        discard_prestarted()  # (the jobs share this process and draw in it)
     skipped = bool(cfg.get("resume", False)) and is_complete(cfg, out_dir)
     code = run_job(cfg, out_dir, figures_aside=not multirun)
     if multirun and code:  # for the summary in the sweep's process (any launcher)

@@ -2,13 +2,19 @@
 
 A cached single run spends most of its time importing libraries and drawing:
 ``matplotlib.pyplot`` takes ~0.25 s to import and a paper figure ~0.3 s to lay out and
-save, against milliseconds of integration. :class:`FigureWorker` forks once the run's
-config is composed; the child imports matplotlib (and what the figures use) while the
-parent loads the kernel and simulates, then draws the figures from the run's result
-(pickled through a pipe, 1-36 MB for the paper presets, milliseconds) while the parent
-writes the recording and ``metrics.csv``; with several figures it forks once more and
-the two draw every other figure each (:func:`_draw_on_two_cores`; dhlm_example's six:
-1.7 -> 0.9 s waited at load ~1). The parent waits for the figures before it
+save, against milliseconds of integration. ``hgo run`` forks the :class:`FigureWorker`
+at start-up (:func:`prestart`), before it imports its Hydra app; the child imports
+matplotlib and what the result and the figures use, and loads numba's compiled helper
+(:func:`_prepare`), while the parent imports, composes, loads the kernel and simulates;
+it then draws the figures of the config and result it receives (pickled through a pipe,
+1-36 MB for the paper presets, milliseconds) while the parent writes the recording and
+``metrics.csv``; with several figures it forks once more and the two draw every other
+figure each (:func:`_draw_on_two_cores`; dhlm_example's six: 1.7 -> 0.9 s waited at
+load ~1). Forked after the composition instead (as before 2026-11-28), the child was
+still preparing when the result came, and loaded numba's registries while drawing:
+sp_fig1's figure took 1.7-1.8 s there against 1.2-1.4 s now. A run that does not take
+the prestarted process (a sweep, an ensemble, a configuration error) ends it
+(:func:`discard_prestarted`). The parent waits for the figures before it
 writes ``run.json`` and marks the run complete, so the outputs, statuses and errors are
 those of drawing in the run's own process: an exception raised by a figure is raised
 again in the parent; a child that dies without replying fails the run with a
@@ -209,28 +215,42 @@ def _draw_on_two_cores(cfg: DictConfig, result: Any) -> list[Path]:
     return [paths[name] for name in names]
 
 
-def _serve(cfg: DictConfig, request_fd: int, reply_fd: int) -> None:
-    """The child: import, wait for the result, draw, reply ``("ok", paths)`` or
-    ``("error", exception)``. EOF instead of a request (the run stopped): draw nothing."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # (the parent's SIGTERM handler raises)
-    import hgo.outputs.figures  # noqa: F401  (matplotlib with hgo's style, while the parent runs)
+def _prepare() -> None:
+    """What the figures use, loaded before the result comes: the modules of the result and
+    the figures (matplotlib with hgo's style), a figure laid out and rendered
+    (:func:`_warm_up`), and the compiled pixel-column helper the figures reduce lines with
+    (numba's first load of a compiled function in a process: ~0.6-1 s on a 2-core VM,
+    with ``scipy.linalg``)."""
+    import hgo.outputs.figures  # noqa: F401
     import hgo.running.figures  # noqa: F401
+    import hgo.running.results  # noqa: F401  (the result's classes, which unpickling imports)
+    from hgo.outputs.decimate import bucket_min_max
 
     gc.freeze()  # the collector skips the modules' objects while drawing (0.1 s a figure)
     _warm_up()
+    bucket_min_max(np.zeros((2, 1)), np.array([0, 2]))
+
+
+def _serve(request_fd: int, reply_fd: int) -> None:
+    """The child: prepare, wait for the request (the figures' config and the result),
+    draw, reply ``("ok", paths)`` or ``("error", exception)``. EOF instead of a request
+    (the run stopped, or needs no figures): draw nothing."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # (the parent's SIGTERM handler raises)
+    _prepare()
     data = _read_all(request_fd)
     if not data:
         return
-    reply = _reply_of(lambda: _draw_on_two_cores(cfg, pickle.loads(data)))
+    reply = _reply_of(lambda: _draw_on_two_cores(*pickle.loads(data)))
     _write_all(reply_fd, pickle.dumps(reply, protocol=pickle.HIGHEST_PROTOCOL))
 
 
 class FigureWorker:
-    """A forked process that draws the figures of ``cfg`` for one
-    :class:`hgo.running.runner.RunResult` (:meth:`submit`, then :meth:`collect`)."""
+    """A forked process that draws a config's figures for one
+    :class:`hgo.running.runner.RunResult` (:meth:`submit`, then :meth:`collect`). It may be
+    forked before the config is known (:func:`prestart`): it prepares meanwhile."""
 
-    def __init__(self, cfg: DictConfig) -> None:
+    def __init__(self) -> None:
         request_r, self._request_w = os.pipe()
         self._sender: threading.Thread | None = None
         self._reply_r, reply_w = os.pipe()
@@ -243,7 +263,7 @@ class FigureWorker:
             os.close(self._reply_r)
             code = 0
             try:
-                _serve(cfg, request_r, reply_w)
+                _serve(request_r, reply_w)
             except BaseException as err:  # noqa: BLE001  (a broken pipe: the parent ended)
                 sys.stderr.write(f"figure process: {one_line(err)}\n")
                 code = 1
@@ -258,10 +278,15 @@ class FigureWorker:
         """Whether figures can be drawn in a forked process here (Linux)."""
         return sys.platform == "linux" and hasattr(os, "fork")
 
-    def submit(self, result: Any) -> None:
-        """Send the run's result as the figures draw it (:func:`drawing_view`; in the
-        background): the child starts drawing."""
-        data = pickle.dumps(drawing_view(result), protocol=pickle.HIGHEST_PROTOCOL)
+    def submit(self, cfg: DictConfig, result: Any) -> None:
+        """Send ``cfg``'s figures (the ``figures`` node, resolved) and the run's result as
+        they draw it (:func:`drawing_view`; in the background): the child starts drawing."""
+        from omegaconf import OmegaConf
+
+        figures = OmegaConf.create({"figures": OmegaConf.to_container(cfg.figures,
+                                                                      resolve=True)})
+        data = pickle.dumps((figures, drawing_view(result)),
+                            protocol=pickle.HIGHEST_PROTOCOL)
         fd, self._request_w = self._request_w, -1
         self._sender = threading.Thread(target=_send_and_close, args=(fd, data), daemon=True)
         self._sender.start()
@@ -300,16 +325,40 @@ class FigureWorker:
             self._sender.join()
 
 
+_PRESTARTED: FigureWorker | None = None  # forked at start-up, no config yet (prestart)
+
+
+def prestart() -> None:
+    """Fork the figure process now, before the run's config is composed: it imports and
+    prepares (:func:`_prepare`, ~2-3 s of one core on a 2-core VM) while this process
+    imports, composes and simulates, so the figures are drawn as soon as the result is
+    there. :func:`figures_aside` takes it; :func:`discard_prestarted` ends it unused."""
+    global _PRESTARTED
+    if _PRESTARTED is None and FigureWorker.available():
+        _PRESTARTED = FigureWorker()
+
+
+def discard_prestarted() -> None:
+    """End the process :func:`prestart` forked if no run took it (a sweep, a config
+    error, a run without figures); idempotent."""
+    global _PRESTARTED
+    worker, _PRESTARTED = _PRESTARTED, None
+    if worker is not None:
+        worker.close()
+
+
 @contextmanager
 def figures_aside(cfg: DictConfig) -> Iterator[FigureWorker | None]:
-    """A :class:`FigureWorker` for ``cfg``'s figures, ended on leaving; None where there
-    are no figures or no ``fork``."""
+    """A :class:`FigureWorker` for ``cfg``'s figures (the one :func:`prestart` forked, if
+    any), ended on leaving; None where there are no figures or no ``fork``."""
+    global _PRESTARTED
     from hgo.running.figures import figure_nodes
 
     if not (FigureWorker.available() and figure_nodes(cfg)):
+        discard_prestarted()
         yield None
         return
-    worker = FigureWorker(cfg)
+    worker, _PRESTARTED = _PRESTARTED or FigureWorker(), None
     try:
         yield worker
     finally:

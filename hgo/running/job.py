@@ -190,6 +190,7 @@ def run_job(cfg: DictConfig, out_dir: str | Path, figures_aside: bool = False) -
     ``figures_aside``: a single run draws its figures in a forked process
     (:mod:`hgo.running.figure_worker`); for the one run of a process."""
     from hgo.running.ensemble_runner import is_ensemble, run_ensemble
+    from hgo.running.figure_worker import discard_prestarted
     from hgo.running.figure_worker import figures_aside as worker
     from hgo.running.runner import SimulationFailed, run
 
@@ -206,6 +207,7 @@ def run_job(cfg: DictConfig, out_dir: str | Path, figures_aside: bool = False) -
     try:
         (Path(out_dir) / DONE).unlink(missing_ok=True)
         if is_ensemble(cfg):
+            discard_prestarted()  # (its reports are drawn here; its members use every core)
             run_ensemble(cfg, out_dir)
         else:
             with worker(cfg) if figures_aside else nullcontext() as figures:

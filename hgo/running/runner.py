@@ -413,7 +413,7 @@ def run(cfg: DictConfig, out_dir: str | Path, figures: FigureWorker | None = Non
     series = signals(exp.system, traj) + mem.post.series
     result = RunResult(exp, traj, table, out_dir, series, mem.timings)
     if figures is not None and traj.ok:
-        figures.submit(result)
+        figures.submit(cfg, result)
     t1 = time.perf_counter()
     write_run_recording(cfg.get("recording"), out_dir / "recording.rrd", traj.t, series,
                         recording_id=recording_id(out_dir),
