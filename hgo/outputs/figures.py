@@ -177,12 +177,19 @@ def _window(t: np.ndarray, y: np.ndarray, window: tuple[float, float] | None):
 
 
 def _columns(t: np.ndarray, y: np.ndarray, columns: int):
-    """(edges, t_first, t_last, min, max) of ``y`` per column of consecutive samples."""
-    from hgo.outputs.decimate import bucket_edges, bucket_min_max
+    """(edges, t_first, t_last, min, max) of ``y`` per column of consecutive samples.
 
+    numpy's reductions, not the compiled :func:`hgo.outputs.decimate.bucket_min_max`: a
+    figure process gets at most ~60,000 samples a signal
+    (:func:`hgo.running.figure_worker.drawing_view`), ~0.3 ms here, and would otherwise
+    load numba's registries for it (0.6-1 s of its start-up on a 2-core VM)."""
+    from hgo.outputs.decimate import bucket_edges
+
+    y = y.reshape(len(y), -1)[:, 0]
     edges = bucket_edges(len(t), 2 * columns)
-    mm = bucket_min_max(y.reshape(len(y), -1), edges)[:, 0]
-    return edges, t[edges[:-1]], t[edges[1:] - 1], mm[0::2], mm[1::2]
+    starts = edges[:-1]
+    return (edges, t[starts], t[edges[1:] - 1], np.minimum.reduceat(y, starts),
+            np.maximum.reduceat(y, starts))
 
 
 def drawn(t, y, columns: int, window: tuple[float, float] | None = None):

@@ -4,15 +4,16 @@ A cached single run spends most of its time importing libraries and drawing:
 ``matplotlib.pyplot`` takes ~0.25 s to import and a paper figure ~0.3 s to lay out and
 save, against milliseconds of integration. ``hgo run`` forks the :class:`FigureWorker`
 at start-up (:func:`prestart`), before it imports its Hydra app; the child imports
-matplotlib and what the result and the figures use, and loads numba's compiled helper
-(:func:`_prepare`), while the parent imports, composes, loads the kernel and simulates;
+matplotlib and what the result and the figures use (:func:`_prepare`), while the parent
+imports, composes, loads the kernel and simulates;
 it then draws the figures of the config and result it receives (pickled through a pipe,
 1-36 MB for the paper presets, milliseconds) while the parent writes the recording and
 ``metrics.csv``; with several figures it forks once more and the two draw every other
 figure each (:func:`_draw_on_two_cores`; dhlm_example's six: 1.7 -> 0.9 s waited at
 load ~1). Forked after the composition instead (as before 2026-11-28), the child was
-still preparing when the result came, and loaded numba's registries while drawing:
-sp_fig1's figure took 1.7-1.8 s there against 1.2-1.4 s now. A run that does not take
+still preparing when the result came, and loaded numba's registries while drawing (for
+its pixel-column reduction, now numpy's): sp_fig1's figure took 1.7-1.8 s there against
+1.1-1.3 s now. A run that does not take
 the prestarted process (a sweep, an ensemble, a configuration error) ends it
 (:func:`discard_prestarted`). The parent waits for the figures before it
 writes ``run.json`` and marks the run complete, so the outputs, statuses and errors are
@@ -217,18 +218,16 @@ def _draw_on_two_cores(cfg: DictConfig, result: Any) -> list[Path]:
 
 def _prepare() -> None:
     """What the figures use, loaded before the result comes: the modules of the result and
-    the figures (matplotlib with hgo's style), a figure laid out and rendered
-    (:func:`_warm_up`), and the compiled pixel-column helper the figures reduce lines with
-    (numba's first load of a compiled function in a process: ~0.6-1 s on a 2-core VM,
-    with ``scipy.linalg``)."""
+    the figures (matplotlib with hgo's style), and a figure laid out and rendered
+    (:func:`_warm_up`). Nothing compiled: the figures reduce their lines with numpy
+    (:func:`hgo.outputs.figures.drawn`), as numba's first load of a compiled function in
+    a process costs 0.6-1 s on a 2-core VM."""
     import hgo.outputs.figures  # noqa: F401
     import hgo.running.figures  # noqa: F401
     import hgo.running.results  # noqa: F401  (the result's classes, which unpickling imports)
-    from hgo.outputs.decimate import bucket_min_max
 
     gc.freeze()  # the collector skips the modules' objects while drawing (0.1 s a figure)
     _warm_up()
-    bucket_min_max(np.zeros((2, 1)), np.array([0, 2]))
 
 
 def _serve(request_fd: int, reply_fd: int) -> None:
