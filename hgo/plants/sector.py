@@ -17,7 +17,8 @@ from collections.abc import Callable
 from math import comb
 
 import numpy as np
-from scipy.optimize import minimize_scalar
+
+from hgo.core.scalar_min import bounded_minimum
 
 
 def quotient_coeffs(psi: np.ndarray, sigma: np.ndarray) -> np.ndarray:
@@ -83,6 +84,5 @@ def numerical_sector_lower(phi: Callable[[np.ndarray | float, float], np.ndarray
     if lo < 0 < hi:
         hi = -z_min if zs[i] < 0 else hi
         lo = z_min if zs[i] > 0 else lo
-    res = minimize_scalar(lambda z: phi(z, sigma) / z, bounds=(lo, hi), method="bounded",
-                          options={"xatol": 1e-12})
-    return float(min(best, res.fun))
+    _, low = bounded_minimum(lambda z: phi(z, sigma) / z, lo, hi, xatol=1e-12)
+    return float(min(best, low))

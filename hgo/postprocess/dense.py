@@ -33,8 +33,8 @@ from collections.abc import Callable
 from types import MethodType
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
+from hgo.core.scalar_min import bounded_minimum
 from hgo.engine.simulate import DenseRun, Trajectory
 
 Signal = Callable[[Trajectory], np.ndarray]
@@ -372,10 +372,9 @@ def maximum(run: DenseRun, signal: Signal, a: float, b: float) -> tuple[float, f
     lo, hi = ts[max(k - 1, 0)], ts[min(k + 1, ts.size - 1)]
     best_t, best = float(ts[k]), float(v[k])
     if hi > lo:
-        res = minimize_scalar(lambda t: -_at(run, signal, t), bounds=(lo, hi),
-                              method="bounded", options={"xatol": XTOL})
-        if -res.fun > best:
-            best_t, best = float(res.x), float(-res.fun)
+        t, neg = bounded_minimum(lambda t: -_at(run, signal, t), lo, hi, xatol=XTOL)
+        if -neg > best:
+            best_t, best = float(t), float(-neg)
     return best, best_t
 
 
