@@ -4,18 +4,17 @@ A cached single run spends most of its time importing libraries and drawing:
 ``matplotlib.pyplot`` takes ~0.25 s to import and a paper figure ~0.3 s to lay out and
 save, against milliseconds of integration. ``hgo run`` forks the :class:`FigureWorker`
 at start-up (:func:`prestart`), before it imports its Hydra app; the child imports
-matplotlib and what the result and the figures use (:func:`_prepare`), while the parent
-imports, composes, loads the kernel and simulates;
-it then draws the figures of the config and result it receives (pickled through a pipe,
-1-36 MB for the paper presets, milliseconds) while the parent writes the recording and
-``metrics.csv``; with several figures it forks once more and the two draw every other
-figure each (:func:`_draw_on_two_cores`; dhlm_example's six: 1.7 -> 0.9 s waited at
-load ~1). Forked after the composition instead (as before 2026-11-28), the child was
-still preparing when the result came, and loaded numba's registries while drawing (for
-its pixel-column reduction, now numpy's): sp_fig1's figure took 1.7-1.8 s there against
-1.1-1.3 s now. A run that does not take
-the prestarted process (a sweep, an ensemble, a configuration error) ends it
-(:func:`discard_prestarted`). The parent waits for the figures before it
+matplotlib and what the result and the figures use (:func:`_prepare`) while the parent
+imports, composes, loads the kernel and simulates. It then draws the figures of the config
+and result it receives (pickled through a pipe, 1-36 MB for the paper presets,
+milliseconds) while the parent writes the recording and ``metrics.csv``; with several
+figures it forks once more and the two draw every other figure each
+(:func:`_draw_on_two_cores`; dhlm_example's six: 1.7 -> 0.9 s waited at load ~1). Forked
+after the composition instead (as before 2026-11-28), the child was still preparing when
+the result came, and loaded numba's registries while drawing (for its pixel-column
+reduction, now numpy's): sp_fig1's figure took 1.7-1.8 s there against 1.1-1.3 s now. A
+run that does not take the prestarted process (a sweep, an ensemble, a configuration
+error) ends it (:func:`discard_prestarted`). The parent waits for the figures before it
 writes ``run.json`` and marks the run complete, so the outputs, statuses and errors are
 those of drawing in the run's own process: an exception raised by a figure is raised
 again in the parent; a child that dies without replying fails the run with a
