@@ -7,11 +7,13 @@
   constants inlined): the reference for "close to compiled code".
 
   - Problem B: adaptive DOPRI5 on the S-P error system (20), FSAL and the same
-    4th-order dense output and step control as hgo, output grid, trailing-window metric;
+    4th-order dense output and step control as hgo, output grid, the trailing-window
+    metrics as hgo computes them (Gauss-Legendre on the steps' continuous extensions);
     its error norm is the RMS over the 5 states of plant + observer (the plant states are
     exactly 0 and contribute 0), as in hgo and in the solve_ivp baseline.
   - Problem A: fixed-step RK4 on the DC motor + switched HGO, substeps aligned to the noise
-    samples, as many as the stability margin of the *active* gain needs.
+    samples, as many as the stability margin of the *active* gain needs; the
+    trailing-window metrics as hgo's RK4 computes them (trapezoid on the step ends).
 
 * ``reference_*``: tight-tolerance references (scipy DOP853, rtol 1e-12, segment by
   segment between noise samples) for the accuracy columns.
@@ -91,12 +93,43 @@ _P = np.array([
     [0, 40617522 / 29380423, -110615467 / 29380423, 69997945 / 29380423]])
 
 
+GAUSS_NODES = (0.5 - 0.5 * math.sqrt(0.6), 0.5, 0.5 + 0.5 * math.sqrt(0.6))
+GAUSS_WEIGHTS = (5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0)
+
+
+@numba.njit(inline="always")
+def _b_dense(k, s, hh, th, so):
+    """The 4th-order continuous extension of the step [t, t + hh] at t + th hh."""
+    for i in range(3):
+        acc_i = 0.0
+        for j in range(7):
+            if j == 1:
+                continue
+            pj = _P[0 if j == 0 else j - 1]
+            acc_i += k[j, i] * th * (pj[0] + th * (pj[1] + th * (pj[2] + th * pj[3])))
+        so[i] = s[i] + hh * acc_i
+
+
+@numba.njit(inline="always")
+def _b_point(e1, e2, acc, weight):
+    """One point of the window metrics: weight * (e1^2, e2^2, (y^ - y)^2 = e1^2) into the
+    integrals, ||e|| into the running maximum."""
+    q0 = e1 * e1
+    q1 = e2 * e2
+    acc[0] += weight * q0
+    acc[1] += weight * q1
+    acc[2] += weight * q0
+    acc[3] = max(acc[3], math.sqrt(q0 + q1))
+
+
 @numba.njit(cache=True, error_model="numpy")
 def b_kernel(e10, e20, p2, t_end, dt_out, rtol, atol, h0, t_window, rec, acc):
     """Hand-written DOPRI5 for problem B; ``rec`` (n_out, 3) filled if it has rows.
 
-    acc = [int e1^2, int e2^2, window length] over the trailing window (trapezoid on the
-    output grid, as hgo). Returns the number of accepted steps.
+    acc = [int e1^2, int e2^2, int (y^ - y)^2, max ||e||, window length] over the trailing
+    window, as hgo's run computes them (``kernel_template``'s ``_window_step``): each
+    step's part of the window by 3-point Gauss-Legendre on its continuous extension, the
+    maximum at those nodes and at the step ends. Returns the number of accepted steps.
     """
     k = np.zeros((7, 3))
     s = np.array([e10, e20, 1.0])
@@ -106,12 +139,10 @@ def b_kernel(e10, e20, p2, t_end, dt_out, rtol, atol, h0, t_window, rec, acc):
     t_win0 = t_end - t_window
     tol = 1e-12 * max(1.0, t_end)
     record = rec.shape[0] > 0
-    acc[0] = 0.0
-    acc[1] = 0.0
-    acc[2] = 0.0
-    prev0 = 0.0
-    prev1 = 0.0
-    have_prev = False
+    for j in range(5):
+        acc[j] = 0.0
+    if t_win0 <= tol:
+        _b_point(s[0], s[1], acc, 0.0)
     t = 0.0
     h = h0
     k_out = 0
@@ -124,14 +155,6 @@ def b_kernel(e10, e20, p2, t_end, dt_out, rtol, atol, h0, t_window, rec, acc):
                 rec[k_out, 0] = s[0]
                 rec[k_out, 1] = s[1]
                 rec[k_out, 2] = s[2]
-            if k_out * dt_out >= t_win0 - tol:
-                q0 = s[0] * s[0]
-                q1 = s[1] * s[1]
-                if have_prev:
-                    acc[0] += 0.5 * dt_out * (q0 + prev0)
-                    acc[1] += 0.5 * dt_out * (q1 + prev1)
-                    acc[2] += dt_out
-                prev0, prev1, have_prev = q0, q1, True
             k_out += 1
         if k_out >= n_out:
             break
@@ -175,34 +198,25 @@ def b_kernel(e10, e20, p2, t_end, dt_out, rtol, atol, h0, t_window, rec, acc):
             h = hh * max(0.2, 0.9 * err ** -0.2)
             retried = True
         t_new = t_end if last else t + hh
+        if t_new > t_win0 + tol:  # the step overlaps the window
+            a = max(t, t_win0)
+            for q in range(3):
+                _b_dense(k, s, hh, (a + (t_new - a) * GAUSS_NODES[q] - t) / hh, so)
+                _b_point(so[0], so[1], acc, (t_new - a) * GAUSS_WEIGHTS[q])
+            acc[4] += t_new - a
         while k_out < n_out and k_out * dt_out < t_new - tol:  # dense output
-            th = (k_out * dt_out - t) / hh
-            for i in range(3):
-                acc_i = 0.0
-                for j in range(7):
-                    jj = 0 if j == 0 else j - 1
-                    if j == 1:
-                        continue
-                    pj = _P[jj]
-                    acc_i += k[j, i] * th * (pj[0] + th * (pj[1] + th * (pj[2] + th * pj[3])))
-                so[i] = s[i] + hh * acc_i
             if record:
+                _b_dense(k, s, hh, (k_out * dt_out - t) / hh, so)
                 rec[k_out, 0] = so[0]
                 rec[k_out, 1] = so[1]
                 rec[k_out, 2] = so[2]
-            if k_out * dt_out >= t_win0 - tol:
-                q0 = so[0] * so[0]
-                q1 = so[1] * so[1]
-                if have_prev:
-                    acc[0] += 0.5 * dt_out * (q0 + prev0)
-                    acc[1] += 0.5 * dt_out * (q1 + prev1)
-                    acc[2] += dt_out
-                prev0, prev1, have_prev = q0, q1, True
             k_out += 1
         for i in range(3):
             s[i] = st[i]
             k[0, i] = k[6, i]
         t = t_new
+        if t >= t_win0 - tol:  # the step end, for the maximum
+            _b_point(s[0], s[1], acc, 0.0)
         n_steps += 1
         fac = 10.0 if err == 0.0 else min(10.0, max(0.2, 0.9 * err ** -0.2))
         if retried:  # no growth right after a rejection (scipy, hgo)
@@ -275,11 +289,32 @@ def _a_f(t, s, eps, a1, a2, v, out):
     out[4] = phi0 + a2 / (eps * eps) * e
 
 
+@numba.njit(inline="always")
+def _a_point(s, v, acc, prev, dt):
+    """A step end of the window metrics (hgo's RK4 ``_step_end``): the squared errors
+    (x^1 - x1)^2, (x^2 - x2)^2, (y^ - y)^2 with y = x1 + v, their trapezoid from the previous
+    step end (``dt`` after it; none at the window's first point, dt < 0), ||x^ - x|| into the
+    running maximum."""
+    q0 = (s[3] - s[0]) ** 2
+    q1 = (s[4] - s[1]) ** 2
+    q2 = (s[3] - (s[0] + v)) ** 2
+    if dt >= 0.0:
+        acc[0] += 0.5 * dt * (q0 + prev[0])
+        acc[1] += 0.5 * dt * (q1 + prev[1])
+        acc[2] += 0.5 * dt * (q2 + prev[2])
+        acc[4] += dt
+    prev[0], prev[1], prev[2] = q0, q1, q2
+    acc[3] = max(acc[3], math.sqrt(q0 + q1))
+
+
 @numba.njit(cache=True, error_model="numpy")
-def a_kernel(s0, noise, noise_dt, t_end, t_switch, stab, out_every, rec):
+def a_kernel(s0, noise, noise_dt, t_end, t_switch, stab, out_every, rec, t_window, acc):
     """Hand-written RK4 for problem A: substeps aligned to the noise samples, their number
     from the stability margin of the active gain (rho = 1.4e5 then 100). ``rec`` receives
-    the state every ``out_every`` noise samples. Returns the number of RK4 steps."""
+    the state every ``out_every`` noise samples. The window metrics of hgo's run into
+    ``acc`` = [int (x^1 - x1)^2, int (x^2 - x2)^2, int (y^ - y)^2, max ||x^ - x||, window
+    length]: the trapezoid on the step ends in the trailing ``t_window`` (its start a noise
+    instant here: a step end; 0: none). Returns the number of RK4 steps."""
     n = int(round(t_end / noise_dt))
     s = s0.copy()
     k1 = np.zeros(5)
@@ -287,6 +322,11 @@ def a_kernel(s0, noise, noise_dt, t_end, t_switch, stab, out_every, rec):
     k3 = np.zeros(5)
     k4 = np.zeros(5)
     st = np.zeros(5)
+    prev = np.zeros(3)
+    acc[:] = 0.0
+    t_win0 = t_end - t_window if t_window > 0.0 else math.inf
+    tol = 1e-12 * max(1.0, t_end)
+    t_last = -1.0  # the previous step end in the window (none yet)
     n_steps = 0
     rec[0] = s
     for k in range(n):
@@ -298,6 +338,9 @@ def a_kernel(s0, noise, noise_dt, t_end, t_switch, stab, out_every, rec):
         n_sub = max(1, math.ceil(noise_dt / (stab / rho) - 1e-9))
         h = noise_dt / n_sub
         v = noise[k]
+        if k == 0 and t_win0 <= tol:
+            _a_point(s, v, acc, prev, -1.0)
+            t_last = 0.0
         for j in range(n_sub):
             tj = t + j * h
             _a_f(tj, s, eps, a1, a2, v, k1)
@@ -312,6 +355,10 @@ def a_kernel(s0, noise, noise_dt, t_end, t_switch, stab, out_every, rec):
             _a_f(tj + h, st, eps, a1, a2, v, k4)
             for i in range(5):
                 s[i] += h / 6.0 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
+            t_end_j = (k + 1) * noise_dt if j == n_sub - 1 else tj + h
+            if t_end_j >= t_win0 - tol:
+                _a_point(s, v, acc, prev, t_end_j - t_last if t_last >= 0.0 else -1.0)
+                t_last = t_end_j
         n_steps += n_sub
         if (k + 1) % out_every == 0:
             rec[(k + 1) // out_every] = s

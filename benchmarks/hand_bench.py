@@ -32,14 +32,16 @@ integration), and the compile time of a new kernel (problem B, DOP853 rtol 1e-7,
 processes: empty caches, and a new kernel with numba's cache of the component helpers
 kept). The last line: ``hgo_over_hand: A=<x> B=<x> APA=<x> DHLM=<x> Moreno=<x>``.
 
-The hand kernels compute what hgo's call computes besides the recorded trajectory: B's
-and (since 2026-11-28) DHLM's and Moreno's also the window metrics hgo's run reports, as
-hgo computes them (``hand_dop853``), checked against hgo's (the difference column: the
-largest of the trajectory's and the metrics' differences). The column "without its window
-metrics" times the same DHLM and Moreno kernels with no window (the earlier yardstick).
-The APA kernels compute no window metrics; A's neither (its hgo run's window is the RK4
-trapezoid, a few operations a step). The hand kernels record the state only; hgo also
-records y, u and x^ at every output instant.
+The hand kernels compute what hgo's call computes besides the recorded trajectory: also
+the window metrics hgo's run reports, as hgo computes them, checked against hgo's (the
+difference column: the largest of the trajectory's and the metrics' differences): DHLM's
+and Moreno's (``hand_dop853``) and B's by 3-point Gauss-Legendre on each step's continuous
+extension, A's by the trapezoid on its RK4 step ends (B's and A's since the afternoon of
+2026-11-28: before, B's hand kernel integrated a trapezoid on the output grid, a metric hgo
+no longer computes, and A's none). The column "without its window metrics" times the same
+hand kernels with no window (the earlier yardstick). The APA kernels compute no window
+metrics. The hand kernels record the state only; hgo also records y, u and x^ at every
+output instant.
 """
 
 from __future__ import annotations
@@ -82,7 +84,8 @@ def _rel_diff(a: np.ndarray, b: np.ndarray) -> float:
 
 
 def case_a() -> tuple:
-    """(hgo call, hand call, trajectory difference) of problem A."""
+    """(hgo call, hand call, difference of the trajectories and window metrics, hand call
+    without its window metrics) of problem A."""
     system, solver, noise = pb.a_system(), pb.a_solver(), pb.a_noise()
     s0 = np.concatenate([system.plant.x0, system.observers[0].z0])
     stab = solver.stability_safety * 2.785
@@ -90,31 +93,39 @@ def case_a() -> tuple:
     rec = np.zeros((int(round(pb.A_T / pb.A_DT_OUT)) + 1, 5))
     v = noise.samples[:, 0].copy()
 
-    def hand():
-        return bl.a_kernel(s0, v, pb.A_NOISE_DT, pb.A_T, pb.A_SWITCH, stab, every, rec)
+    acc = np.zeros(system.n_acc())
+
+    def hand(window: float = solver.t_window):
+        return bl.a_kernel(s0, v, pb.A_NOISE_DT, pb.A_T, pb.A_SWITCH, stab, every, rec, window,
+                           acc)
 
     def hgo():
         return pb.simulate(system, solver, noise)
 
     hand()
     tr = hgo()
-    return hgo, hand, _rel_diff(rec, tr.z[:, :5])
+    diff = max(_rel_diff(rec, tr.z[:, :5]), _rel_diff(acc[None], tr.acc[None]))
+    return hgo, hand, diff, lambda: hand(0.0)
 
 
 def case_b() -> tuple:
+    """(hgo call, hand call, difference of the trajectories and window metrics, hand call
+    without its window metrics) of problem B."""
     system, solver = pb.b_system(), pb.b_solver()
     rec = np.zeros((int(round(pb.B_T / pb.B_DT)) + 1, 3))
-    acc = np.zeros(3)
+    acc = np.zeros(system.n_acc())
 
-    def hand():
+    def hand(window: float = solver.t_window):
         return bl.b_kernel(3.0, 3.0, 1.5, pb.B_T, pb.B_DT, pb.RTOL_B, pb.ATOL_B, 1e-3,
-                           pb.B_T / 4, rec, acc)
+                           window, rec, acc)
 
     def hgo():
         return pb.simulate(system, solver, pb.no_noise(1))
 
     hand()
-    return hgo, hand, _rel_diff(rec, pb.b_errors(hgo()))
+    tr = hgo()
+    diff = max(_rel_diff(rec, pb.b_errors(tr)), _rel_diff(acc[None], tr.acc[None]))
+    return hgo, hand, diff, lambda: hand(0.0)
 
 
 def case_paper(overrides: list[str], kernel, z0: np.ndarray) -> tuple:

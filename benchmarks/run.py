@@ -110,7 +110,7 @@ def core(quick: bool) -> None:
     simulate(sysB, solF, no_noise(1))
     n_out = int(round(B_T / B_DT)) + 1
     rec = np.zeros((n_out, 3))
-    acc = np.zeros(3)
+    acc = np.zeros(sysB.n_acc())  # the window metrics hgo's run computes
 
     def hand_b():
         return bl.b_kernel(3.0, 3.0, 1.5, B_T, B_DT, RTOL_B, ATOL_B, 1e-3, B_T / 4, rec, acc)
@@ -159,7 +159,7 @@ def core(quick: bool) -> None:
     n_ens = 1000
     p2, e0 = ensemble_members(n_ens)
     params, z0 = ensemble_inputs(sysB, p2, e0)
-    acc_h = np.zeros((n_ens, 3))
+    acc_h = np.zeros((n_ens, sysB.n_acc()))
     runs = [lambda: simulate_ensemble(sysB, solF, no_noise(1), params, z0),
             lambda: simulate_ensemble(sysB, solB, no_noise(1), params, z0),
             lambda: bl.b_ensemble(e0, p2, B_T, B_DT, RTOL_B, ATOL_B, 1e-3, B_T / 4, acc_h)]
@@ -209,13 +209,18 @@ def core(quick: bool) -> None:
     n_rec = int(round(A_T / A_DT_OUT)) + 1
     rec_a = np.zeros((n_rec, 5))
     rec_ref = np.zeros((n_rec, 5))
+    acc_a = np.zeros(sysA.n_acc())  # the window metrics hgo's run computes
     vA = noiseA.samples[:, 0].copy()
-    bl.a_kernel(s0, vA, A_NOISE_DT, A_T, A_SWITCH, stab, every, rec_a)
-    bl.a_kernel(s0, vA, A_NOISE_DT, A_T, A_SWITCH, stab / 8, every, rec_ref)  # reference
+
+    def hand_a():
+        return bl.a_kernel(s0, vA, A_NOISE_DT, A_T, A_SWITCH, stab, every, rec_a,
+                           solA.t_window, acc_a)
+
+    hand_a()
+    bl.a_kernel(s0, vA, A_NOISE_DT, A_T, A_SWITCH, stab / 8, every, rec_ref, 0.0,
+                np.zeros(5))  # reference
     (ta_hgo, trA), (ta_hand, n_steps_a) = interleaved_median_times(
-        [lambda: simulate(sysA, solA, noiseA),
-         lambda: bl.a_kernel(s0, vA, A_NOISE_DT, A_T, A_SWITCH, stab, every, rec_a)],
-        FAST_REPS)
+        [lambda: simulate(sysA, solA, noiseA), hand_a], FAST_REPS)
     hgo_a = np.c_[trA.z[:, :3], trA.z[:, 3:5]]
     # solve_ivp: segment by segment; a sample of segments before and after the switch,
     # extrapolated (the full run takes ~15-30 s per repetition)
@@ -387,7 +392,8 @@ def ivp_window_integrals(e0, p2) -> np.ndarray:
 def bl_state_at(s0, v, stab, k):
     """Reference state at noise instant k (hand RK4 with a small step)."""
     rec = np.zeros((k + 1, 5))
-    bl.a_kernel(s0, v[: k + 1].copy(), A_NOISE_DT, k * A_NOISE_DT, A_SWITCH, stab, 1, rec)
+    bl.a_kernel(s0, v[: k + 1].copy(), A_NOISE_DT, k * A_NOISE_DT, A_SWITCH, stab, 1, rec, 0.0,
+                np.zeros(5))
     return rec[-1]
 
 
