@@ -57,7 +57,13 @@ def _run_hydra_app(args: list[str], prog: str) -> int:
     # (by default it ended the process at once, marking nothing). Python's own Ctrl-C
     # handler: the engine watches the signals that have it (hgo.engine.interrupt).
     signal.signal(signal.SIGTERM, signal.default_int_handler)
-    cli_main()
+    if single_run(args):  # one composition of the config, not Hydra's two
+        from hgo.cli.compose_once import composed_once
+
+        with composed_once():
+            cli_main()
+    else:
+        cli_main()
     return 0
 
 
