@@ -88,6 +88,16 @@ def test_forked_figure_is_the_in_process_one_and_the_run_never_imports_matplotli
     assert (forked / "run.json").is_file() and (forked / ".hgo_done").is_file()
 
 
+def test_a_run_without_figures_never_imports_matplotlib(tmp_path):
+    """sp_fig1 over 6 s with its figure dropped (``figures.fig1=null``): complete, no figure
+    file, and the run's process has not imported matplotlib when it ends."""
+    out = tmp_path / "run"
+    proc = hgo_run(tmp_path, *SHORT, "figures.fig1=null", f"hydra.run.dir={out}")
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert "matplotlib imported: False" in proc.stdout
+    assert (out / ".hgo_done").is_file() and not list(out.glob("*.png"))
+
+
 def test_several_figures_are_drawn_by_two_processes_as_by_one(tmp_path):
     """sp_fig1 over 6 s with four figures (fig1, the same figure again as fig1b, two that
     write their process id): every other one is drawn by a fork of the figure process,

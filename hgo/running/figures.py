@@ -89,6 +89,10 @@ def draw_figures(cfg: DictConfig, result: RunResult,
     """Figures of the ``figures`` mapping (name -> ``_target_`` taking the result and a
     path; ``names``: only those), written as ``<name>.<figures.format>`` at ``figures.dpi``
     (and also as ``<name>.<figures.vector>`` when set)."""
+    nodes = {name: node for name, node in figure_nodes(cfg).items()
+             if names is None or name in names}
+    if not nodes:  # (a run without figures does not import matplotlib: ~0.5 s)
+        return []
     import matplotlib.pyplot as plt
 
     from hgo.outputs.figures import also_saved_as  # (and hgo's style, the Agg backend)
@@ -99,9 +103,7 @@ def draw_figures(cfg: DictConfig, result: RunResult,
     # figure functions get arrays (a run's derived series are computed when read)
     result = dataclasses.replace(result, series=materialized(result.series))
     paths = []
-    for name, node in figure_nodes(cfg).items():
-        if names is not None and name not in names:
-            continue
+    for name, node in nodes.items():
         path = result.out_dir / f"{name}.{fmt}"
         with plt.rc_context({"savefig.dpi": dpi, "figure.dpi": dpi}), also_saved_as(vector):
             instantiate(node, _partial_=True)(result, path)  # (rc: see figures.STYLE)
