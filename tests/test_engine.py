@@ -316,3 +316,39 @@ def test_adaptive_window_metrics_do_not_depend_on_the_output_grid(method: str) -
     e1 = (fine.xh[late, 0] - fine.z[late, 0]) ** 2
     ref = np.trapezoid(e1, fine.t[late])
     assert base[0] == pytest.approx(ref, rel=1e-6), (base[0], ref)
+
+
+def test_step_lookup_finds_the_step_numpy_searchsorted_finds() -> None:
+    """The kernel's ``_step_of`` (pure-Python module: the same text numba compiles) gives the
+    last step starting at or before t, as ``searchsorted(starts, t, "right") - 1`` (0 before
+    the first start, the last for NaN), from any previous step k: 600 steps of random
+    lengths, instants at the starts, between them, outside, NaN, in order and not."""
+    module = codegen.load_kernel(sp_system(), compiled=False, method="dopri5")
+    rng = np.random.default_rng(3)
+    starts = np.cumsum(rng.uniform(1e-4, 1.0, 600))
+    record = np.zeros((610, 4))
+    record[:600, 0] = starts
+    ts = np.concatenate([starts, starts + 1e-9, rng.uniform(-1, starts[-1] + 1, 400),
+                         [np.nan, -np.inf, np.inf]])
+    expected = np.maximum(0, np.searchsorted(starts, ts, side="right") - 1)
+    for order in (np.argsort(ts), rng.permutation(ts.size)):
+        k = 0
+        for j in order:
+            for k_from in (k, 0, 599, int(rng.integers(600))):
+                assert module._step_of(record, 600, ts[j], k_from) == expected[j], (ts[j], k_from)
+            k = expected[j]
+
+
+def test_the_continuous_extension_at_sparse_sorted_instants_is_the_one_at_each_alone() -> None:
+    """The compiled ``dense_signals`` at 250 sorted instants ~20 steps apart (5,000 steps of
+    0.01 s; the crossings' bisections ask so) equals, bit for bit, the same instants asked
+    one at a time (each looked for from step 0)."""
+    solver = SolverSettings(t_end=50.0, dt_out=0.5, method="dopri5", h_max=0.01,
+                            dense_steps=True)
+    run = simulate(sp_system(), solver, no_noise(1)).dense
+    ts = np.sort(np.random.default_rng(4).uniform(0.0, 50.0, 250))
+    together = run.at(ts)
+    alone = [run.at(ts[j:j + 1]) for j in range(ts.size)]
+    for field in ("z", "y", "xh"):
+        assert np.array_equal(getattr(together, field),
+                              np.concatenate([getattr(a, field) for a in alone]))
