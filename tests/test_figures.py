@@ -101,3 +101,64 @@ def test_plot_line_draws_dense_noise_as_a_band_and_a_smooth_curve_as_a_line():
     assert len(smooth_line.get_xdata()) == 2 * pixel_columns(ax)
     assert not noisy(np.sin(t[:-1:400]), np.sin(t[1::400]))
     plt.close(fig)
+
+
+def _mathtext_png(own_parser: bool) -> tuple[bytes, object]:
+    """A small figure with mathtext labels as png bytes, and the parser its renderer used
+    (``own_parser``: a new one, as matplotlib gives each renderer)."""
+    import io
+
+    import matplotlib.pyplot as plt
+    from matplotlib.mathtext import MathTextParser
+
+    fig, ax = plt.subplots(figsize=(3, 2))
+    ax.plot([0.0, 1.0], [0.0, 1.0], label=r"$\hat{x}_{1}$")
+    ax.set_xlabel(r"$\varepsilon$ (s)")
+    ax.legend()
+    renderer = fig.canvas.get_renderer()
+    if own_parser:
+        renderer.mathtext_parser = MathTextParser("path")
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    assert fig.canvas.get_renderer() is renderer  # (savefig drew with it)
+    plt.close(fig)
+    return buf.getvalue(), renderer.mathtext_parser
+
+
+def test_agg_renderers_share_one_mathtext_parser_and_draw_the_same_pixels() -> None:
+    """With hgo's figure module loaded, two figures' renderers share one mathtext parser
+    (its cache of parsed labels serves every figure of the process), and a figure drawn
+    through the shared cache is byte-identical to the same figure drawn by a renderer with
+    its own new parser."""
+    import hgo.outputs.figures  # noqa: F401  (shares the parser)
+
+    first, shared = _mathtext_png(own_parser=False)
+    second, shared_again = _mathtext_png(own_parser=False)
+    own, own_parser = _mathtext_png(own_parser=True)
+    assert shared is shared_again and own_parser is not shared
+    assert first == second == own
+
+
+def test_a_forked_process_parses_mathtext_again_and_draws_the_same_pixels() -> None:
+    """After this process drew mathtext labels, a fork of it (as the figure process forks
+    to draw on two cores) draws the same figure with a parser of its own, byte-identical:
+    the parent's parses hold its FreeType fonts, which a forked process must not draw with
+    (FreeType failed: 'too many hints', 'invalid outline')."""
+    import os
+
+    import hgo.outputs.figures  # noqa: F401  (shares the parser)
+
+    png, parser = _mathtext_png(own_parser=False)
+    read, write = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # the child: its png, or a note that it drew with the parent's parser
+        try:
+            child_png, child_parser = _mathtext_png(own_parser=False)
+            os.write(write, b"parent's parser" if child_parser is parser else child_png)
+        finally:
+            os._exit(0)
+    os.close(write)
+    with os.fdopen(read, "rb") as pipe:
+        drawn = pipe.read()
+    os.waitpid(pid, 0)
+    assert drawn == png
