@@ -25,6 +25,7 @@ import math
 
 import numba
 import numpy as np
+from hand_dop853 import GAUSS_NODES, GAUSS_WEIGHTS  # hgo's window rule, as the papers' kernels
 from scipy.integrate import solve_ivp
 
 # ----------------------------------------------------------------------------------------
@@ -91,10 +92,6 @@ _P = np.array([
      701980252875 / 199316789632],
     [0, -282668133 / 205662961, 2019193451 / 616988883, -1453857185 / 822651844],
     [0, 40617522 / 29380423, -110615467 / 29380423, 69997945 / 29380423]])
-
-
-GAUSS_NODES = (0.5 - 0.5 * math.sqrt(0.6), 0.5, 0.5 + 0.5 * math.sqrt(0.6))
-GAUSS_WEIGHTS = (5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0)
 
 
 @numba.njit(inline="always")
