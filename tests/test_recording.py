@@ -169,3 +169,31 @@ def test_read_recording_gives_the_series_names_as_columns_indexed_by_sim_time(tm
     np.testing.assert_allclose(df.index.to_numpy(), t, rtol=0, atol=1e-9)  # ns timeline
     assert list(df.columns) == ["/plant/x/x1", "/plant/x/x2"]
     np.testing.assert_array_equal(df.to_numpy(), read_arrays(path)["/plant/x"])
+
+
+def test_a_run_without_recording_never_imports_rerun(tmp_path: Path) -> None:
+    """``hgo run`` of sp_fig1 over 6 s with ``recording.mode=off`` and its figure dropped:
+    complete, no recording file, and the run's process has not imported Rerun (its
+    blueprint, ~0.4 s of imports, is built only for a recording)."""
+    import os
+    import subprocess
+    import sys
+    import textwrap
+
+    script = textwrap.dedent('''
+        import sys
+        from hgo.cli import main
+        try:
+            main(["run", *sys.argv[1:]])
+        finally:
+            print("rerun imported:", "rerun" in sys.modules)
+    ''')
+    out = tmp_path / "run"
+    env = {k: v for k, v in os.environ.items() if k != "HYDRA_FULL_ERROR"}
+    proc = subprocess.run([sys.executable, "-c", script, "experiment=sp_fig1", "solver.t_end=6",
+                           "metrics.window=2", "figures.fig1=null", "recording.mode=off",
+                           f"hydra.run.dir={out}"], cwd=tmp_path, env=env,
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert "rerun imported: False" in proc.stdout
+    assert (out / ".hgo_done").is_file() and not (out / "recording.rrd").exists()

@@ -415,9 +415,11 @@ def run(cfg: DictConfig, out_dir: str | Path, figures: FigureWorker | None = Non
     if figures is not None and traj.ok:
         figures.submit(cfg, result)
     t1 = time.perf_counter()
-    write_run_recording(cfg.get("recording"), out_dir / "recording.rrd", traj.t, series,
-                        recording_id=recording_id(out_dir),
-                        blueprint=blueprint(exp.system, series),
+    recording = cfg.get("recording")
+    # (the blueprint imports Rerun, ~0.4 s: not for a run that writes no recording)
+    layout = None if recording_mode(recording) == "off" else blueprint(exp.system, series)
+    write_run_recording(recording, out_dir / "recording.rrd", traj.t, series,
+                        recording_id=recording_id(out_dir), blueprint=layout,
                         text={"/run/status": status_text(traj),
                               "/run/config": job_config_yaml(cfg)})
     result.timings["write"] = t_write = time.perf_counter() - t1
