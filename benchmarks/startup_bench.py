@@ -7,7 +7,12 @@
 * ``hgo.outputs.runs.load`` over 1,000 run directories (target < 2 s), median of 3;
 * ``--presets``: a cached ``hgo run`` of every paper preset that draws figures (one run,
   not a sweep; target < 1.5 s each, issue 27), one line each with the load average and
-  the last run's own seconds from its ``run.json`` (the rest is imports, Hydra, exit).
+  the last run's own seconds from its ``run.json`` (the rest is imports, Hydra, exit);
+* ``--floor``: what any run pays before hgo's own work, on this machine: a bare Python
+  process importing numpy, Hydra, OmegaConf, pandas and numba and calling one
+  ``@njit(cache=True)`` function loaded from its cache, then ending without the
+  interpreter's teardown (whole process, and its imports and numba's first load as the
+  process measures them), ``--reps`` processes.
 
 The last line is ``startup: help=<s> run=<s> index_1000=<s>``.
 """
@@ -83,12 +88,53 @@ def preset_times(reps: int) -> None:
                   f"load {load1:.1f}; last run's run.json: {inside} s", flush=True)
 
 
+FLOOR = """\
+import os
+import time
+t0 = time.perf_counter()
+import numpy, hydra, omegaconf, pandas, numba
+t1 = time.perf_counter()
+@numba.njit(cache=True)
+def one(x):
+    return x + 1.0
+one(1.0)
+print(t1 - t0, time.perf_counter() - t1, flush=True)
+os._exit(0)  # (no interpreter teardown: 0.4-0.7 s here, which hgo's run mostly avoids)
+"""
+
+
+def floor_times(reps: int) -> None:
+    """The bare process of ``FLOOR``, from a file in a fresh folder (its numba cache
+    written by a first, untimed process): whole-process wall time, its imports and numba's
+    first load of the cached function, one line a process, then the medians."""
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        script = Path(tmp) / "floor.py"
+        script.write_text(FLOOR)
+        subprocess.run([sys.executable, str(script)], check=True, capture_output=True)
+        for _ in range(reps):
+            t0 = time.perf_counter()
+            out = subprocess.run([sys.executable, str(script)], check=True,
+                                 capture_output=True, text=True).stdout
+            rows.append((time.perf_counter() - t0, *map(float, out.split())))
+            print(f"floor: whole process {rows[-1][0]:.2f} s (imports {rows[-1][1]:.2f} s, "
+                  f"numba's first load of a cached function {rows[-1][2]:.2f} s), load "
+                  f"{os.getloadavg()[0]:.1f}", flush=True)
+    wall, imports, first = (statistics.median(c) for c in zip(*rows, strict=True))
+    print(f"floor (medians of {reps}): whole process {wall:.2f} s, imports {imports:.2f} s, "
+          f"numba's first load {first:.2f} s (a cached hgo run's target: 1.5 s)", flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--reps", type=int, default=5)
     parser.add_argument("--presets", action="store_true",
                         help="also time a cached run of every paper figure preset")
+    parser.add_argument("--floor", action="store_true",
+                        help="also time a bare process of hgo's libraries (FLOOR)")
     args = parser.parse_args()
+    if args.floor:
+        floor_times(args.reps)
     if args.presets:
         preset_times(args.reps)
     with tempfile.TemporaryDirectory() as tmp:
