@@ -2,6 +2,7 @@
 
     python benchmarks/run.py --only hand          # or: python benchmarks/hand_bench.py
     python benchmarks/hand_bench.py --outputs     # DHLM, Moreno: outputs against steps
+    python benchmarks/hand_bench.py --signals     # Moreno: the cost of recording u, y, x^
     python benchmarks/hand_bench.py --only=DHLM,Moreno   # those ratios alone
 
 For each problem, hgo's whole in-process call as a user's script makes it (the system or
@@ -64,6 +65,7 @@ from hand_papers import (  # noqa: E402
     apa_kernel,
     dhlm_kernel,
     moreno_kernel,
+    moreno_kernel_signals,
 )
 from timing import interleaved_median_cpu  # noqa: E402
 
@@ -206,6 +208,38 @@ def outputs_split(reps: int = REPS) -> None:
               f"{ms[0] - ms[1]:.2f} / {ms[2] - ms[3]:.2f} | {g2 / h2:.2f} |")
 
 
+def signals_split(reps: int = REPS) -> None:
+    """``--signals``: Moreno's call against its hand kernel recording the state only (the
+    ratio line's yardstick) and against the same hand kernel also recording what hgo's call
+    records at each output (t, y, m, u, x^: ``hand_papers.moreno_signals``), checked equal
+    to hgo's."""
+    from hgo.core.config import compose
+    from hgo.running.runner import build, run_experiment
+
+    hgo, hand, _, _ = case_paper(MORENO, moreno_kernel, MORENO_Z0)
+    exp = build(compose(MORENO))
+    s = exp.solver
+    rec = np.zeros((int(round(s.t_end / s.dt_out)) + 1, 10))
+    acc = np.zeros(exp.system.n_acc())
+
+    def hand_signals():
+        return moreno_kernel_signals(MORENO_Z0.copy(), np.zeros(1), NO_NOISE, np.inf, s.t_end,
+                                     s.dt_out, s.h_max, s.rtol, s.atol, rec, s.t_window, acc)
+
+    hand_signals()
+    run = run_experiment(exp)
+    ours = np.column_stack([run.z, run.t, run.y, run.m, run.u, run.xh])
+    diff = _rel_diff(rec, ours)
+    (g, _), (h, _), (hs, _) = interleaved_median_cpu([hgo, hand, hand_signals], reps)
+    print(f"\n## Moreno: what recording the signals costs (CPU ms, medians of {reps} "
+          f"interleaved calls; load average {os.getloadavg()[0]:.2f})\n")
+    print("| hgo | hand, state only | hand, also t, y, m, u, x^ | hgo / hand, state only | "
+          "hgo / hand, also t, y, m, u, x^ | max difference of the signals |")
+    print("|---|---|---|---|---|---|")
+    print(f"| {g * 1e3:.3f} | {h * 1e3:.3f} | {hs * 1e3:.3f} | {g / h:.2f} | {g / hs:.2f} | "
+          f"{diff:.1e} |")
+
+
 def member_build_ms(n: int = GRID_N) -> tuple[float, int]:
     """CPU ms per member of preparing the ``n`` x ``n`` grid ensemble (median of 3)."""
     from sweeps_bench import sp_grid_override
@@ -264,6 +298,8 @@ if __name__ == "__main__":
     t0 = time.perf_counter()
     if "--outputs" in sys.argv:
         outputs_split()
+    elif "--signals" in sys.argv:
+        signals_split()
     else:  # --only A,B,...: some problems alone
         picked = next((a.split("=", 1)[1] for a in sys.argv if a.startswith("--only=")), "")
         bench("--quick" in sys.argv, [k for k in picked.split(",") if k] or None)

@@ -48,9 +48,23 @@ GAUSS_NODES = np.array([0.5 - 0.5 * math.sqrt(0.6), 0.5, 0.5 + 0.5 * math.sqrt(0
 GAUSS_WEIGHTS = np.array([5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0])
 
 
-def dop853_kernel(rhs, nz: int, errors, n_est: int):
+@numba.njit(inline="always")
+def _state_only(t, rec, k, p, m):
+    """No signals besides the state."""
+    return
+
+
+def dop853_kernel(rhs, nz: int, errors, n_est: int, signals=_state_only):
     """The compiled DOP853 run of ``rhs`` with the window metrics of ``errors`` (see the
-    module docstring)."""
+    module docstring); ``signals(t, rec, k, p, m)``: what else is recorded at output k
+    (columns ``nz:`` of ``rec``, from the state in its first ``nz``)."""
+
+    @numba.njit(inline="always")
+    def emit(rec, k, t, z, p, m):
+        """Output k at t: the state z, then the other signals."""
+        for i in range(nz):
+            rec[k, i] = z[i]
+        signals(t, rec, k, p, m)
 
     @numba.njit(inline="always")
     def stage(s, t, h, z, p, m, K, zt):
@@ -173,11 +187,10 @@ def dop853_kernel(rhs, nz: int, errors, n_est: int):
         tol = 1e-12 * max(1.0, t_end)
         t_win0 = t_end - window
         metrics[:] = 0.0
-        for i in range(nz):
-            rec[0, i] = z[i]
         t = 0.0
         k_noise = 0
         m = noise[0]
+        emit(rec, 0, t, z, p, m)
         k_out = 1
         rhs(t, z, p, m, K[0])
         h = initial_step(t, z, p, m, K, zt, rtol, atol, h_max)
@@ -219,6 +232,7 @@ def dop853_kernel(rhs, nz: int, errors, n_est: int):
                         prepared = True
                     for i in range(nz):
                         rec[k_out, i] = extension((k_out * dt_out - t) / hh, z, F, i)
+                    signals(k_out * dt_out, rec, k_out, p, m)
                     k_out += 1
                 for i in range(nz):
                     z[i] = zt[i]
@@ -235,16 +249,14 @@ def dop853_kernel(rhs, nz: int, errors, n_est: int):
                 if last:
                     break
                 while k_out < n_out and k_out * dt_out <= t + tol:  # output on the step end
-                    for i in range(nz):
-                        rec[k_out, i] = z[i]
+                    emit(rec, k_out, k_out * dt_out, z, p, m)
                     k_out += 1
             if t_seg < t_end:  # the next noise sample holds from here on
                 k_noise += 1
                 m = noise[min(k_noise, noise.shape[0] - 1)]
                 fsal = False
             while k_out < n_out and k_out * dt_out <= t + tol:
-                for i in range(nz):
-                    rec[k_out, i] = z[i]
+                emit(rec, k_out, k_out * dt_out, z, p, m)
                 k_out += 1
             if k_out >= n_out:
                 return accepted, rejected

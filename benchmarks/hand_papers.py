@@ -92,8 +92,22 @@ def no_errors(t, w, p, m, sq):
     return
 
 
+@numba.njit(inline="always")
+def moreno_signals(t, rec, k, p, m):
+    """What hgo records besides the state at output k, into ``rec[k, 4:]``: t, y = x1 + m,
+    m, u = r' + a r, x^ = (x^1, x^2) (hgo's Trajectory.t, y, m, u, xh)."""
+    rec[k, 4] = t
+    rec[k, 5] = rec[k, 0] + m
+    rec[k, 6] = m
+    rec[k, 7] = MORENO_AMP * math.cos(t) + MORENO_A * MORENO_AMP * math.sin(t)
+    rec[k, 8] = rec[k, 2]
+    rec[k, 9] = rec[k, 3]
+
+
 dhlm_kernel = dop853_kernel(dhlm_rhs, 9, dhlm_errors, 2)
 moreno_kernel = dop853_kernel(moreno_rhs, 4, moreno_errors, 2)
+# the same run recording hgo's other signals too (rec with 10 columns: moreno_signals)
+moreno_kernel_signals = dop853_kernel(moreno_rhs, 4, moreno_errors, 2, moreno_signals)
 
 
 # Andrieu, Praly & Astolfi, apa_fig2 (conf/experiment/apa_fig2.yaml): the Contois plant
