@@ -42,7 +42,7 @@ extension, A's by the trapezoid on its RK4 step ends (B's and A's since the afte
 no longer computes, and A's none). The column "without its window metrics" times the same
 hand kernels with no window (the earlier yardstick). The APA kernels compute no window
 metrics. The hand kernels record the state only; hgo also records y, u and x^ at every
-output instant.
+output instant (``--signals``: Moreno's hand kernel recording them too, against hgo).
 """
 
 from __future__ import annotations
