@@ -122,14 +122,21 @@ def _status_kb(key: str) -> int:
                     reason="reads /proc/self/status; the writer is forked on Linux")
 def test_writing_process_does_not_hold_the_recording(writer_growth):
     """Writing 128 MB of scalars (2^21 rows x 8 columns) instead of 32 MB (2^19 rows) grows
-    the writing process by less than a quarter of the 96 MB more: Rerun's file sink queued
-    every chunk until written, the whole recording (measured on a 2-core machine at load
-    ~2.5: 96 -> 223 MB without a flush; 83-87 -> 84 MB flushing every 16 MB)."""
-    small, small_data = writer_growth(1 << 19, 8)
-    big, big_data = writer_growth(1 << 21, 8)
-    assert big - small < (big_data - small_data) / 4, \
-        f"writing process grew by {small:.0f} MB for {small_data:.0f} MB of scalars, " \
-        f"{big:.0f} MB for {big_data:.0f} MB"
+    the writing process by less than a quarter of the 96 MB more, in the best of up to three
+    pairs of writes: Rerun's file sink queued every chunk until written, the whole recording
+    (measured on a 2-core machine at load ~2.5: 96 -> 223 MB without a flush; 83-87 -> 84 MB
+    flushing every 16 MB). One pair is not enough: the growth varies with how the writer
+    thread keeps up (idle here: -7 to +7 MB between the two sizes; one CI run: 81 -> 107 MB),
+    while a sink holding the recording adds its 96 MB to every pair."""
+    limit = 96 / 4
+    pairs = []
+    while len(pairs) < 3 and (not pairs or pairs[-1][1] - pairs[-1][0] >= limit):
+        (small, small_data), (big, big_data) = writer_growth(1 << 19, 8), writer_growth(1 << 21, 8)
+        assert big_data - small_data == 96
+        pairs.append((small, big))
+    assert min(big - small for small, big in pairs) < limit, \
+        "writing process grew by (MB, for 32 MB -> 128 MB of scalars): " + \
+        ", ".join(f"{small:.0f} -> {big:.0f}" for small, big in pairs)
 
 
 def test_figure_view_does_not_grow_with_the_run(tmp_path, monkeypatch):
