@@ -249,6 +249,8 @@ class Plant(Named):
     output_state: int = 0
     spectral_radius: float = 0.0  # of df/dx, bounds the explicit step (RK4 stability)
     breaks: object = None  # optional ``breaks(p)``: instants where f or h jump in t
+    jac_f: object = None  # optional ``jac_f(t, x, u, p, J)``: J[i, j] = df_i/dx_j (nx x nx)
+    jac_h: object = None  # optional ``jac_h(t, x, p, C)``: C[k, j] = dh_k/dx_j (ny x nx)
 
     @property
     def nx(self) -> int:

@@ -218,22 +218,26 @@ def build_members(nodes: list[Mapping]) -> list[System]:
     """:func:`hgo.running.runner.build_system` of every member, each component built once per
     distinct node object (members share their unvaried groups, :func:`member_nodes`)."""
     from hgo.core.components import Controller, Observer, Plant
-    from hgo.running.runner import _instantiate
+    from hgo.running.runner import _instantiate, plant_argument
 
-    built: dict[int, Any] = {}
+    built: dict[tuple, Any] = {}
 
     def once(node, group: str, kind: type, **kwargs):
-        if id(node) not in built:
-            built[id(node)] = (node, _instantiate(node, group, kind, **kwargs))
-        return built[id(node)][1]
+        # an observer built from the plant is built once per (node, plant) pair
+        key = (id(node), *(id(v) for v in kwargs.values() if isinstance(v, Plant)))
+        if key not in built:
+            built[key] = (node, _instantiate(node, group, kind, **kwargs))
+        return built[key][1]
 
     systems = []
     for n in nodes:
         if not n["observer"]:
             raise ValueError("observer: the config group is empty; choose an observer option")
-        observers = [once(node, f"observer.{name}", Observer, name=name)
+        plant = once(n["plant"], "plant", Plant)
+        observers = [once(node, f"observer.{name}", Observer, name=name,
+                          **plant_argument(node, plant))
                      for name, node in n["observer"].items()]
         ctrl = n.get("controller")
-        systems.append(System(once(n["plant"], "plant", Plant), observers,
+        systems.append(System(plant, observers,
                               once(ctrl, "controller", Controller) if ctrl else None))
     return systems

@@ -140,13 +140,28 @@ def _instantiate(node: DictConfig, group: str, expected: type, **kwargs):
     return obj
 
 
+def plant_argument(node: Mapping, plant: Plant) -> dict:
+    """``{"plant": plant}`` for an observer factory with a parameter named ``plant`` (an
+    observer derived from the plant's own equations: its model, Jacobians or coordinates),
+    else ``{}``: such a factory gets the built plant, never a config node of it."""
+    target = node.get("_target_") if isinstance(node, Mapping) else None
+    if not isinstance(target, str):
+        return {}
+    try:
+        params = inspect.signature(_locate_target(target)).parameters
+    except (TypeError, ValueError):
+        return {}
+    return {"plant": plant} if "plant" in params else {}
+
+
 def build_system(nodes: Mapping) -> System:
     """Plant, observers and controller from the ``plant``/``observer``/``controller``
     nodes of a config (a DictConfig or a plain mapping of the same shape)."""
     if not nodes["observer"]:
         raise ValueError("observer: the config group is empty; choose an observer option")
     plant = _instantiate(nodes["plant"], "plant", Plant)
-    observers = [_instantiate(node, f"observer.{name}", Observer, name=name)
+    observers = [_instantiate(node, f"observer.{name}", Observer, name=name,
+                              **plant_argument(node, plant))
                  for name, node in nodes["observer"].items()]
     ctrl = nodes.get("controller")
     return System(plant, observers, _instantiate(ctrl, "controller", Controller) if ctrl else None)
