@@ -69,6 +69,30 @@ def test_crossings_and_shares_are_located_between_the_samples() -> None:
     assert dense.mean(run, _v, 0.0, 1.0) == pytest.approx(1.0, abs=1e-12)
 
 
+class _JumpRun(GridRun):
+    """v = 3 on [0, 0.3), -3 from 0.3 (a jump over the band), scanned as one step [0, 2]."""
+
+    def at(self, ts: np.ndarray) -> Trajectory:
+        v = np.where(np.asarray(ts) < 0.3, 3.0, -3.0)
+        return _grid_run(np.asarray(ts, float), v).traj
+
+    def boundaries(self, a: float, b: float) -> np.ndarray:
+        return np.array([a, b])
+
+
+def test_first_within_sees_a_zero_crossing_between_scan_points() -> None:
+    """On the line from 3 at t = 0 to -7 at t = 1 (then -7), |v| < 0.1 first at t = 0.29:
+    the scan points of [0, 1] (its ends and Gauss nodes 0.113, 0.5, 0.887) all have
+    |v| >= 1.8, but v changes sign between 0.113 and 0.5; first_below of |v| finds no
+    entry (NaN). A jump over the band (no value inside it) is no entry."""
+    run = _grid_run(np.array([0.0, 1.0, 2.0]), np.array([3.0, -7.0, -7.0]))
+    assert dense.first_within(run, _v, 0.1, 0.0, 2.0) == pytest.approx(0.29, abs=1e-11)
+    assert math.isnan(dense.first_below(run, lambda s: np.abs(_v(s)), 0.1, 0.0, 2.0))
+    jump = _JumpRun(run.traj)
+    assert math.isnan(dense.first_within(jump, _v, 0.1, 0.0, 2.0))
+    assert dense.first_within(jump, _v, 4.0, 0.0, 2.0) == 0.0
+
+
 def test_dimassi_settle_time_is_never_when_the_signal_leaves_the_band_in_the_window() -> None:
     """settle_time: |err| back below the band at 19.86 s after an excursion inside the window
     [10, 20] s is "never" (NaN; before: 19.86 s); an excursion only before the window gives

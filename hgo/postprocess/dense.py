@@ -11,10 +11,11 @@ window [a, b] from those steps only, so that the numbers do not move with ``dt_o
   ``kernel_template._window_step``), pieces halved where the halves disagree (kinks);
   :class:`Cumulative` (the integral up to any instant) by the same rule, and on it
   :func:`window_mean_max` (the largest sliding-window mean) and :func:`max_rise`;
-* :func:`first_below`, :func:`settles_below`, :func:`fraction_above`: sign changes of
-  ``signal - level`` between the scan points (step ends and the Gauss nodes of every
-  step), each crossing located by bisection on the continuous extension (to 1e-12 s, all
-  crossings of a window at once);
+* :func:`first_below`, :func:`first_within`, :func:`settles_below`,
+  :func:`fraction_above`: sign changes of ``signal - level`` (:func:`first_within`: of
+  the signal too, whose zero crossing passes through the band) between the scan points
+  (step ends and the Gauss nodes of every step), each crossing located by bisection on
+  the continuous extension (to 1e-12 s, all crossings of a window at once);
 * :func:`maximum`: the largest scan point, refined by a bounded search on the continuous
   extension between its neighbours.
 
@@ -335,6 +336,27 @@ def first_below(run: DenseRun, signal: Signal, level: float, a: float, b: float)
     if k == 0:
         return float(ts[0])
     return float(_roots(run, signal, level, ts[k - 1:k], ts[k:k + 1])[0])
+
+
+def first_within(run: DenseRun, signal: Signal, level: float, a: float, b: float) -> float:
+    """The first t in [a, b] with |signal(t)| < level; NaN if none. Between two scan points
+    the signal enters the band where it ends inside it or changes sign (a continuous
+    signal passes through 0, so through the band, even with both ends outside: a fast
+    zero crossing between scan points); the entry is the crossing of the band edge on the
+    side it came from, located by bisection on the continuous extension (to XTOL). A
+    bracket whose bisection ends on a jump over the band (|signal - edge| > level there:
+    the signal is discontinuous) is no entry."""
+    ts, s = _scan(run, a, b)
+    v = np.asarray(signal(s), float)
+    inside = np.abs(v) < level
+    if inside[0]:
+        return float(ts[0])
+    for k in np.flatnonzero(inside[1:] | (np.sign(v[:-1]) * np.sign(v[1:]) < 0)):
+        edge = math.copysign(level, v[k])  # |v[k]| >= level: this edge is crossed first
+        t = float(_roots(run, signal, edge, ts[k:k + 1], ts[k + 1:k + 2])[0])
+        if inside[k + 1] or abs(_at(run, signal, t) - edge) <= level:
+            return t
+    return math.nan
 
 
 def settles_below(run: DenseRun, signal: Signal, level: float, a: float, b: float) -> float:

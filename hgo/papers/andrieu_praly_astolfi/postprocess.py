@@ -14,7 +14,8 @@ series
 rows per observer (e = eta^2 - eta2, the Fig. 2 error; windows [a, b] of the integration)
 ``bias_late``, ``std_late`` (mean, std of e on ``late``), ``rms_post`` (``post``),
 ``bias_w<k>``, ``std_w<k>`` (steady window k = 1..4), ``peak_e_x2`` (max |e_x2| on
-``transient``), ``t1_<thr>`` (first time |e| < thr), ``ts_<thr>`` (settling: |e| < thr
+``transient``), ``t1_<thr>`` (first time |e| < thr, a zero crossing of e between scan
+points included), ``ts_<thr>`` (settling: |e| < thr
 from then until the end of ``transient``; NaN, "never", if |e| >= thr at its end),
 ``L0``, ``L_end``, ``min_L``,
 ``max_L`` (bound: max(L(0), phi2 + (phi3/phi1) df2max) for the df2max and Omega1
@@ -217,7 +218,7 @@ class APAMetrics:
         transient = _span(self.transient, t_stop)
         vals["peak_e_x2"] = dense.maximum(run, lambda s: np.abs(sig.e_x2(s)), *transient)[0]
         for thr in self.thresholds:
-            vals[f"t1_{thr:g}"] = dense.first_below(run, sig.abs_e, thr, *whole)
+            vals[f"t1_{thr:g}"] = dense.first_within(run, sig.e, thr, *whole)
         vals[f"ts_{min(self.thresholds):g}"] = dense.settles_below(
             run, sig.abs_e, min(self.thresholds), *transient)
         L_ends = sig.L(run.at(np.array(whole)))

@@ -48,23 +48,6 @@ DEFAULT_WINDOW = 5.0  # Delta of Remark 6.3 for a non-periodic input (s)
 LAMBDA_P = ("half_min_eig", "min_eig", "sharp")
 
 
-def first_time_below(t: np.ndarray, x: np.ndarray, level: float) -> float:
-    """First t after which x stays below ``level`` (linear interpolation at the crossing);
-    nan when x ends above it."""
-    above = np.nonzero(x >= level)[0]
-    if above.size == 0:
-        return float(t[0])
-    i = above[-1]
-    if i == x.size - 1:
-        return math.nan
-    x0, x1 = x[i], x[i + 1]
-    return float(t[i] + (t[i + 1] - t[i]) * (x0 - level) / (x0 - x1))
-
-
-def at_time(t: np.ndarray, x: np.ndarray, when: float) -> float:
-    return float(np.interp(when, t, x)) if t[0] <= when <= t[-1] + 1e-12 else math.nan
-
-
 @dataclass(frozen=True)
 class Certificate:
     """Moreno (12)-(14) and Remark 6 evaluated on one run (finite horizon)."""
