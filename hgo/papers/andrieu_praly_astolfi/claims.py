@@ -9,12 +9,14 @@ the bounds on a grid; the numbers below come from those measurements. Observers:
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
+from functools import cache
 
 import numpy as np
 
 from hgo.core.registry import PARTLY, REPRODUCED, Measured, claim
 from hgo.papers.andrieu_praly_astolfi.theory import order_check, setup_constants
-from hgo.running.in_memory import run_in_memory, run_rows
+from hgo.running.in_memory import compose_cached, run_in_memory, run_rows
 
 PAPER = "andrieu_praly_astolfi"
 OBS = ("df2max", "omega1", "omega2")
@@ -32,6 +34,41 @@ def paper(seed: int, *extra: str) -> tuple[str, ...]:
 
 MODEL = ("experiment=apa_model",)
 NOMINAL = ("experiment=apa_nominal",)
+
+
+@dataclass(frozen=True)
+class Setup:
+    """The constants the checks use, read from the paper run's config (apa_fig2): the
+    observers' hbar_o (0.8) and the plant's hbar (1), phi2 (0.01, the least L of (8)), the
+    Omega2 power p (0.9), the input's switch times (10, 20, 35), the noise period Delta
+    (0.01), the late window's start (40) and the steady windows [a, b)."""
+
+    hbar_o: float
+    hbar: float
+    phi2: float
+    p: float
+    switches: tuple[float, ...]
+    noise_period: float
+    late_start: float
+    steady: tuple[tuple[float, float], ...]
+    t_end: float
+
+
+@cache
+def setup() -> Setup:
+    cfg = compose_cached(paper(0))
+    obs, post = cfg.observer.omega2, cfg.postprocess.apa
+    return Setup(float(obs.hbar), float(cfg.plant.hbar), float(obs.phi2), float(obs.p),
+                 tuple(float(t) for t in cfg.controller.times), float(cfg.noise.period),
+                 float(post.late[0]), tuple((float(a), float(b)) for a, b in post.steady),
+                 float(cfg.solver.t_end))
+
+
+def L_bound(overrides: tuple[str, ...]) -> float:
+    """phi2 + (phi3/phi1) df2max (C4) of the run's Omega1 observer (its own hbar_o, M_u)."""
+    o = compose_cached(overrides).observer.omega1
+    return setup_constants(float(o.hbar), float(o.u_min), float(o.u_max), float(o.phi1),
+                           float(o.phi2), float(o.phi3))["L_df2max"]
 
 
 def noise_only(seed: int) -> tuple[str, ...]:
@@ -53,11 +90,13 @@ def _ordered(values: list[float]) -> bool:
        verdict=PARTLY, readings=("C2: eps from the hbar equalities", "p = 0.9",
                                  "grid 24 u x 300 x1 (log) x 60 x2"))
 def bound_order() -> Measured:
-    """df2/dx2 <= Omega2 and Omega1 <= df2max hold exactly; Omega2 <= Omega1 only up to a
-    small relative excess on a few grid points for hbar_o = 0.8."""
+    """The narrower statement that holds: df2/dx2 <= Omega2 and Omega1 <= df2max at every
+    grid point, for hbar_o and hbar; Omega2 <= Omega1 is reported (share of failing points,
+    largest relative excess), not required."""
     nums: dict[str, float | str] = {}
     exact = True
-    checks = {hbar: order_check(hbar) for hbar in (0.8, 1.0)}  # (each grid once)
+    su = setup()
+    checks = {hbar: order_check(hbar, su.p) for hbar in (su.hbar_o, su.hbar)}  # (each once)
     for hbar, res in checks.items():
         for key, r in res.items():
             nums[f"hbar={hbar} {key}: share failing"] = r["share_fail"]
@@ -67,11 +106,10 @@ def bound_order() -> Measured:
         r = res["Omega2<=Omega1"]
         nums[f"hbar={hbar} Omega2<=Omega1 worst at (u, x1, x2)"] = (
             f"({r['at_u']:.3g}, {r['at_x1']:.3g}, {r['at_x2']:.3g})")
-    narrow = checks[0.8]["Omega2<=Omega1"]["max_rel_excess"] < 1e-3
-    return Measured(holds=exact and narrow, numbers=nums,
-                    summary="df2/dx2 <= Omega2 and Omega1 <= df2max hold at every grid point; "
-                            "Omega2 <= Omega1 fails on a small share of points for hbar_o = "
-                            "0.8 (holds for hbar = 1), by a relative excess < 1e-3")
+    return Measured(holds=exact, numbers=nums,
+                    summary="holds (narrower): df2/dx2 <= Omega2 and Omega1 <= df2max at every "
+                            "grid point; Omega2 <= Omega1 fails on a share of the points for "
+                            "hbar_o (see the numbers)")
 
 
 TIE = 1e-9  # |Omega2 - Omega1| <= TIE Omega1: a tie (they coincide exactly on some arcs)
@@ -110,10 +148,10 @@ def fig1_order_in_mean() -> Measured:
 
 def _increment_rms(t: np.ndarray, x: np.ndarray, lag: int) -> float:
     """RMS of x(t + lag dt) - x(t), leaving out the increments across an input switch
-    (10, 20, 35: Omega jumps there with u, noise or not)."""
+    (Omega jumps there with u, noise or not)."""
     inc = x[lag:] - x[:-lag]
     across = np.zeros(inc.size, bool)
-    for ts in (10.0, 20.0, 35.0):
+    for ts in setup().switches:
         across |= (t[:-lag] < ts + 1e-9) & (t[lag:] > ts - 1e-9)
     return float(np.sqrt(np.mean(inc[~across] ** 2)))
 
@@ -128,7 +166,7 @@ def fig1_noise_reflected() -> Measured:
     t_all, clean = _series(MODEL)
     keep = t_all >= 1.0
     t = t_all[keep]
-    lag = int(round(0.01 / (t[1] - t[0])))  # one noise period
+    lag = int(round(setup().noise_period / (t[1] - t[0])))  # one noise period
     nums: dict[str, float | str] = {}
     ok = True
     for o in ("omega1", "omega2"):
@@ -162,10 +200,12 @@ def fig2_bias_from_hbar() -> Measured:
     (apa_noise, no hbar error) also biases eta^2 through the saturations and F^{-1}: the part
     due to hbar is the paper run's bias minus the noise-only run's (same seeds)."""
     model, nominal = run_rows(MODEL), run_rows(NOMINAL)
+    su = setup()
     t = run_in_memory(MODEL).trajectory.t
-    eta2_late = float(run_in_memory(MODEL).trajectory.z[t >= 40.0, 1].mean())
-    analytic = (0.8 - 1.0) * eta2_late
-    nums: dict[str, float | str] = {"analytic bias (hbar_o - 1) mean eta2 on [40, 50]": analytic}
+    eta2_late = float(run_in_memory(MODEL).trajectory.z[t >= su.late_start, 1].mean())
+    analytic = (su.hbar_o - su.hbar) * eta2_late
+    nums: dict[str, float | str] = {"analytic bias (hbar_o - hbar) mean eta2, late window":
+                                    analytic}
     noise_free, noisy = True, True
     for o in OBS:
         bm, bn = model[(o, "bias_late")], nominal[(o, "bias_late")]
@@ -232,7 +272,8 @@ def _pearson(a: list[float], b: list[float]) -> float:
                  "Omega) > 0.7 over 3 observers x 3 seeds (pooled r reported)"))
 def fig2_std_correlates_with_rate() -> Measured:
     nums: dict[str, float | str] = {}
-    spans = {"w1": (3, 10), "w2": (13, 20), "w3": (23, 35), "w4": (38, 50)}
+    su = setup()
+    spans = {f"w{k}": ab for k, ab in enumerate(su.steady, start=1)}
     std_late = {o: [] for o in OBS}
     log_std, log_om = [], []
     for s in SEEDS:
@@ -242,7 +283,7 @@ def fig2_std_correlates_with_rate() -> Measured:
             std_late[o].append(rows[(o, "std_late")])
             om = ser[f"/observer/{o}/Omega"][:, 0]
             for w, (a, b) in spans.items():
-                mask = (t >= a) & (t < b) if b < 50 else (t >= a)
+                mask = (t >= a) & (t < b) if b < su.t_end else (t >= a)
                 log_std.append(math.log(rows[(o, f"std_{w}")]))
                 log_om.append(math.log(float(om[mask].mean())))
     mean_std = [float(np.mean(std_late[o])) for o in OBS]
@@ -284,18 +325,28 @@ def _order_table(extra: tuple[str, ...], seeds: tuple[int, ...],
     return rms_ok, win_ok
 
 
+PAPER_SET_UP = "C3=p0 Delta=0.01"  # the readings in force (the paper's noise period)
+
+
 @claim(paper=PAPER, id="fig2_best_is_omega2", where="Sec. 3.1 end of the text on Fig. 2; Sec. 3",
        statement="As predicted the best result is given by the new observer based on Omega2 "
                  "(updated gain better than constant, the new one even better, in particular "
-                 "with noise)", verdict=PARTLY,
+                 "with noise)", verdict=REPRODUCED,
        runs=("experiment=apa_fig2 seed=0,1,2", "readings.c3=linear seed=0,1,2",
              "noise.period=0.1 seed=0,1,2"),
-       readings=(BASE, R_C3 + "; also C3 = unit", R_C8 + "; also Delta = 0.1"))
+       readings=(BASE, R_C3 + "; also C3 = unit", R_C8 + "; also Delta = 0.1",
+                 "test, at the readings in force (C3 = p0, Delta = 0.01, seeds 0-2): RMS of e "
+                 "on [10, 50] and the std of e in every steady window ordered df2max > Omega1 > "
+                 "Omega2; Omega2 has the smallest RMS in all 9 runs",
+                 "reproduced (was partly): the two variants are sensitivities, not the paper's "
+                 "set-up (spec §10.7): Delta = 0.1 holds the noise 10x longer than the paper's "
+                 "and reverses df2max / Omega1 (RMS 0.17 vs 0.21-0.23), C3 = unit keeps the "
+                 "RMS order but not every window's std; Omega2 stays best in both"))
 def fig2_best_is_omega2() -> Measured:
     nums: dict[str, float | str] = {}
     best = []
     flags = {}
-    for tag, extra in (("C3=p0 Delta=0.01", ()), ("C3=unit Delta=0.01", ("readings.c3=linear",)),
+    for tag, extra in ((PAPER_SET_UP, ()), ("C3=unit Delta=0.01", ("readings.c3=linear",)),
                        ("C3=p0 Delta=0.1", ("noise.period=0.1",))):
         flags[tag] = _order_table(extra, SEEDS, nums, tag)
         best += [min(OBS, key=lambda o, s=s: run_rows(paper(s, *extra))[(o, "rms_post")])
@@ -303,11 +354,11 @@ def fig2_best_is_omega2() -> Measured:
     for tag, (rms_ok, win_ok) in flags.items():
         nums[f"{tag}: full RMS order / every-window std order"] = f"{rms_ok} / {win_ok}"
     nums["observer with the smallest RMS[10,50], 9 runs"] = ", ".join(best)
-    return Measured(holds=all(b == "omega2" for b in best), numbers=nums,
-                    summary="Omega2 has the smallest RMS of e on [10, 50] for every seed under "
-                            "both C3 readings and both Delta; the full order df2max > Omega1 > "
-                            "Omega2 (RMS and every steady-window std) holds only at the "
-                            "default readings (see the flags)")
+    return Measured(holds=all(flags[PAPER_SET_UP]) and all(b == "omega2" for b in best),
+                    numbers=nums,
+                    summary="at the readings in force the order df2max > Omega1 > Omega2 holds "
+                            "for the RMS on [10, 50] and every steady-window std, every seed; "
+                            "Omega2 has the smallest RMS in all 9 runs (variants: the flags)")
 
 
 @claim(paper=PAPER, id="theorem1_L_bounded", where="Sec. 2.2, Theorem 1 (10)",
@@ -327,11 +378,10 @@ def theorem1_L_bounded() -> Measured:
         rows = run_rows(ov)
         for o in ("omega1", "omega2"):
             lo, hi = rows[(o, "min_L")], rows[(o, "max_L")]
-            bound = setup_constants(1.0 if label.startswith(("nominal", "noise")) else 0.8)
             nums[f"{label} {o} L in"] = f"[{lo:.4g}, {hi:.4g}]"
-            ok &= math.isfinite(hi) and lo >= 0.01 and hi <= bound["L_df2max"]
-    nums["phi2 + (phi3/phi1) df2max, hbar_o = 0.8"] = setup_constants(0.8)["L_df2max"]
-    nums["phi2 + (phi3/phi1) df2max, hbar = 1"] = setup_constants(1.0)["L_df2max"]
+            ok &= math.isfinite(hi) and lo >= setup().phi2 and hi <= L_bound(ov)
+    nums["phi2 + (phi3/phi1) df2max, paper run (hbar_o)"] = L_bound(paper(0))
+    nums["phi2 + (phi3/phi1) df2max, nominal run (hbar_o = hbar)"] = L_bound(NOMINAL)
     return Measured(holds=ok, numbers=nums,
                     summary="L of both adaptive observers stays in [phi2, phi2 + (phi3/phi1) "
                             "df2max] in all four scenarios and seeds")

@@ -18,9 +18,10 @@ rows per observer (e = eta^2 - eta2, the Fig. 2 error; windows [a, b] of the int
 points included), ``ts_<thr>`` (settling: |e| < thr
 from then until the end of ``transient``; NaN, "never", if |e| >= thr at its end),
 ``L0``, ``L_end``, ``min_L``,
-``max_L`` (bound: max(L(0), phi2 + (phi3/phi1) df2max) for the df2max and Omega1
-observers, from (8) with Omega <= df2max: Omega1 <= df2max by the mean-value theorem; no
-bound row for Omega2, whose sup the paper does not give), ``mean_Omega`` (over [0, T]),
+``max_L`` (bound: max(L(0), phi2 + (phi3/phi1) df2max) for the Omega1 observer, from (8)
+with Omega1 <= df2max (the mean-value theorem); none for the df2max observer, whose L is
+that equilibrium itself (an identity, not a test), nor for Omega2, whose sup the paper does
+not give), ``mean_Omega`` (over [0, T]),
 ``share_sat_high`` / ``share_sat_low`` (share of [0, T] with x^2 above x2hi(y_s) / below
 x2lo(y_s)), and the set-up constants ``eps1``, ``eps2``, ``df2max`` in force;
 rows of ``plant``: ``min_eta1``, ``min_eta2`` (invariance of M_eta), ``mean_rate_true``,
@@ -231,7 +232,8 @@ class APAMetrics:
         vals.update(eps1=p.eps1, eps2=p.eps2, df2max=p.df2max)
         rows = [{"observer": obs.name, "quantity": q, "empirical": float(v)}
                 for q, v in vals.items()]
-        if p.kind in (0, 1):  # Omega <= df2max: L <= max(L(0), equilibrium at df2max)
+        if p.kind == 1:  # Omega1 <= df2max: L <= max(L(0), equilibrium at df2max); of the
+            # df2max observer (Omega = df2max) L stays at that equilibrium: no test
             bound = max(L_ends[0], p.phi2 + p.phi3 / p.phi1 * p.df2max)
             rows[[r["quantity"] for r in rows].index("max_L")]["bound"] = bound
         return rows

@@ -30,6 +30,16 @@ XHAT = (f"{K}.psi_at=xhat",)
 OMEGA = (f"{K}.omega_law=true",)
 
 
+def saturation_level() -> float:
+    """S_12 of the config (the paper's S_11 = S_12 = 150): the saturation of z_h12."""
+    return float(compose_cached(NOMINAL).observer.cascade.S[1])
+
+
+def window_start() -> float:
+    """The start of the window W = [window_start, T] of the config (10 s)."""
+    return float(compose_cached(NOMINAL).postprocess.dhlm.window_start)
+
+
 def _table(extra: tuple[str, ...]):
     return run_in_memory(NOMINAL + extra).metrics.set_index(["observer", "quantity"])
 
@@ -87,18 +97,19 @@ def _decreasing(values) -> bool:
        runs=NOMINAL, readings=READINGS, verdict=REPRODUCED)
 def hgo_estimates_z12() -> Measured:
     r = rows()
-    lag = bound("max_abs_zerr2_W")
+    lag, S = r["lag_zerr2_W"], saturation_level()
     nums = {"raw z_h12 peak": r["zh12_peak"], "t of the peak [s]": r["t_peak_zh12"],
+            "S_12 (config)": S,
             "saturation active from [s]": r["t_sat_first"],
             "saturation active until [s]": r["t_sat_last"],
             "end of peaking (|z - z_h| < 1 for good) [s]": r["t_end_peaking"],
             "max |z_12 - z_h12| on W": r["max_abs_zerr2_W"],
             "quasi-static lag eps g1/g2 max|x2'| on W": lag}
-    holds = (r["t_end_peaking"] < 0.1 and r["zh12_peak"] > 150.0
+    holds = (r["t_end_peaking"] < 0.1 and r["zh12_peak"] > S
              and r["max_abs_zerr2_W"] <= 1.05 * lag)
-    return Measured(holds, nums, "criterion: peaking over within 0.1 s, raw peak above S = 150 "
-                    "(saturation active), residual on W within 5 % of the O(eps) quasi-static "
-                    "lag (it does not vanish at fixed eps)")
+    return Measured(holds, nums, "criterion: peaking over within 0.1 s, raw peak above S_12 "
+                    "(saturation active), residual on W at most 5 % above the O(eps) "
+                    "quasi-static lag that predicts it (it does not vanish at fixed eps)")
 
 
 @claim(paper=PAPER, id="states_converge", where="Figs. 2-3; Theorem 1",
@@ -108,7 +119,7 @@ def states_converge() -> Measured:
     r = rows()
     s = _series()
     t, x, xh = s["t"], s["x"], s["xhat"]
-    W = t >= 10.0
+    W = t >= window_start()
     scale = np.max(np.abs(x[W]), axis=0)
     zerr = s[f"/observer/{OBS}/aux"][:, 1] - s[f"/observer/{OBS}/hgo/raw"][:, 1]
     e2 = xh[:, 1] - x[:, 1]
@@ -149,11 +160,11 @@ def parameters_converge() -> Measured:
         nums[f"theta{i}"] = float(theta)
     mean_ok = all(abs(r[f"mean_theta_hat{i}_W"] / th - 1) < 0.05 for i, th in true.items())
     rms_ok = all(r[f"rms_rel_theta_err{i}_W"] < 0.1 for i in (1, 2))
-    never10 = not np.isfinite(r["t_settle_theta1_10pct"])
-    return Measured(bool(mean_ok and rms_ok and never10), nums,
+    return Measured(bool(mean_ok and rms_ok), nums,
                     "holds (narrower): mean theta^i on W within 5 % of theta_i and RMS relative "
-                    "error on W < 10 %; does not hold pointwise: theta^1 never stays within 10 % "
-                    "(excursions of the HGO-lag-driven residual)")
+                    "error on W < 10 %; not pointwise: see 'theta^1 within 10 % for good "
+                    "after' (NaN: theta^1 leaves the 10 % band inside W, excursions of the "
+                    "HGO-lag-driven residual)")
 
 
 @claim(paper=PAPER, id="theorem1_D_R", where="Theorem 1, (8)-(10), (20)-(23)",
@@ -286,25 +297,44 @@ def matching_fails_for_C() -> Measured:
                     "the normalisation rho* -> 0 for H = C too (the literal (28) is degenerate)")
 
 
+def _converged(r: dict[str, float], run: dict[str, np.ndarray]) -> bool:
+    """The criteria of states_converge and parameters_converge on one run: max |e_i| on W
+    below 5 % of max |x_i| on W, RMS theta~_i / theta_i on W below 10 %."""
+    W = run["t"] >= window_start()
+    scale = np.max(np.abs(run["x"][W]), axis=0)
+    return bool(r["max_abs_e1_W"] < 0.05 * scale[0] and r["max_abs_e2_W"] < 0.05 * scale[1]
+                and r["rms_rel_theta_err1_W"] < 0.1 and r["rms_rel_theta_err2_W"] < 0.1)
+
+
 @claim(paper=PAPER, id="omega_law_relaxes_10", where="Remark 1, (11) (reconstructed, A10)",
        statement="the additional adaptation law (11) relaxes condition (10)",
        runs=tuple(" ".join(NOMINAL + o) for o in ((), OMEGA, XHAT, XHAT + OMEGA)),
        readings=READINGS + ("A10: (11) injected as w^ B M (z_h^s - H x^), sigma2 = 0.01, "
-                            "reconstructed",), verdict=PARTLY)
+                            "reconstructed",
+                            "the paper states (11) in a remark citing [9], keeps it out of "
+                            "Theorem 1 and runs no simulation with it; the test: under reading "
+                            "(b), where (10) fails, the observer with (11) converges (the "
+                            "criteria of states_converge and parameters_converge)",
+                            "partly, not reproduced: what the example cannot show is that (11) "
+                            "is what relaxes (10): the run without (11) converges under (b) "
+                            "too (the deciding numbers: (b) margin of (10) < 0, (b) converges "
+                            "without (11) = True)"), verdict=PARTLY)
 def omega_law_relaxes_10() -> Measured:
-    nums, better_V, better_W = {}, True, True
+    nums: dict[str, float | str] = {}
     for tag, base in (("(a)", ()), ("(b)", XHAT)):
         r0, r1 = rows(*base), rows(*base, *OMEGA)
         for q in ("max_V_after_T_eps", "rms_rel_theta_err1_W", "rms_rel_theta_err2_W",
                   "max_abs_e2_W"):
             nums[f"{tag} {q} without (11)"] = r0[q]
             nums[f"{tag} {q} with (11)"] = r1[q]
-        better_V &= r1["max_V_after_T_eps"] < r0["max_V_after_T_eps"]
-        better_W &= r1["rms_rel_theta_err2_W"] <= r0["rms_rel_theta_err2_W"]
-    nums["(b) margin of (10)"] = rows(*XHAT)["margin10"]
+    margin = rows(*XHAT)["margin10"]
+    with11 = _converged(rows(*XHAT, *OMEGA), _series(*XHAT, *OMEGA))
+    without11 = _converged(rows(*XHAT), _series(*XHAT))
+    nums["(b) margin of (10)"] = margin
+    nums["(b) converges with (11)"] = str(with11)
+    nums["(b) converges without (11)"] = str(without11)
     nums["(a) w^(20) with (11)"] = float(_series(*OMEGA)["omega_hat"][-1])
-    return Measured(bool(better_V and not better_W), nums,
-                    "holds (narrower): with (11) the transient of theta^ is damped (max V after "
-                    "T(eps) falls under both readings), but the residual on W grows; under "
-                    "reading (b), where (10) fails, the run without (11) already converges, so "
-                    "the example cannot show (11) relaxing (10)")
+    return Measured(bool(margin < 0 and with11), nums,
+                    "holds (narrower): where (10) fails (reading (b)) the observer with (11) "
+                    "converges; the run without (11) converges as well, so the example "
+                    "cannot show (11) relaxing (10)")

@@ -15,7 +15,8 @@ rows (window W = [window_start, t_end], default [10, 20] s; "for good" times are
     (saturation active, sampled after every integration step by the observer over the whole
     run; NaN: never),
     ``t_end_peaking`` (|z - z_h| < ``peak_band`` for good, every entry), ``max_abs_zerr<k>_W``
-    (bound: the quasi-static HGO lag, eps-scaled, see :func:`quasi_static_lag`),
+    and ``lag_zerr<k>_W``, the quasi-static HGO lag that predicts it (eps-scaled, see
+    :func:`quasi_static_lag`: an estimate of the same quantity, ratio ~1, not a bound),
     ``hgo<i>_pole_slowest_re`` / ``_fastest_re`` (real parts of eig(a-bar_i)/eps),
     ``beta_measured`` = max_{t >= T(eps)} |eta|/eps of (13)-(15), ``T_eps``;
     states: ``max_abs_e<i>`` / ``t_max_abs_e<i>``, ``max_abs_e<i>_W``, ``rms_e<i>_W``,
@@ -242,7 +243,9 @@ class DHLMMetrics:
         lags = self._lags(None, blk, eps, np.array(h_max))
         for j in range(nn):
             peak = dense.maximum(run, lambda s, j=j: np.abs(sig.zerr(s)[:, j]), *W)[0]
-            rows.append((f"max_abs_zerr{j + 1}_W", float(peak), None if ideal else float(lags[j])))
+            rows.append((f"max_abs_zerr{j + 1}_W", float(peak), None))
+            if not ideal:
+                rows.append((f"lag_zerr{j + 1}_W", float(lags[j]), None))
         return rows
 
     def _state_rows(self, sig: _Signals, traj: Trajectory, n: int) -> list:

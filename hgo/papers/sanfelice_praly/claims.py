@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from hgo.core.registry import NOT_REPRODUCED, PARTLY, REPRODUCED, Measured, claim
-from hgo.running.in_memory import run_in_memory, run_rows
+from hgo.core.registry import NOT_REPRODUCED, REPRODUCED, Measured, claim
+from hgo.running.in_memory import compose_cached, run_in_memory, run_rows
 
 PAPER = "sanfelice_praly"
 FIG1 = ("experiment=sp_fig1",)
@@ -55,23 +55,65 @@ def fig1_law6_r_decreases() -> Measured:
                     "r of law (6) falls monotonically after its peak; r of (4) never decreases")
 
 
+VISIBLE = 0.01  # a difference of r's decrease seen "comparing Figure 2 with Figure 1": >= 1 %
+
+
+def worst_noise_r_end(overrides: tuple[str, ...], noise: bool) -> float:
+    """r(T) of (18)-(19) (the run's parameters) integrated by solve_ivp (LSODA, rtol 1e-10),
+    with no noise or with the pointwise worst noise for r's decrease, m = -M∞ sign(e1)
+    (|y^ - y| = |e1| + M∞ at every instant; sign smoothed over |e1| < 1e-6)."""
+    from scipy.integrate import solve_ivp
+
+    cfg = compose_cached(overrides)
+    pl, o = cfg.plant, cfg.observer.sign_indefinite
+    nu1, nu2, k1, k2 = float(pl.nu1), float(pl.nu2), float(o.K[0]), float(o.K[1])
+    p1, p2, b = float(o.p1), float(o.p2), float(o.b)
+    M = float(cfg.noise.amplitude) if noise else 0.0
+
+    def rhs(_, s):
+        x1, x2, h1, h2, r = s
+        e = h1 - x1
+        v = e + M * np.tanh(e / 1e-6)  # y^ - y with y = x1 + m
+        return [x2 + nu1 * x1 + nu2, 0.0, h2 + nu1 * h1 - k1 * r * v, -k2 * r * r * v,
+                p1 * ((v * v - p2) * r ** (1 - 2 * b) + p2 / r ** 4)]
+
+    s0 = [*map(float, pl.x0), *map(float, o.xhat0), float(o.r0)]
+    T = float(cfg.solver.t_end)
+    sol = solve_ivp(rhs, (0.0, T), s0, method="LSODA", rtol=1e-10, atol=1e-12)
+    return float(sol.y[4, -1])
+
+
 @claim(paper=PAPER, id="fig2_noise_slows_r", where="Section 3, Fig. 2",
        statement="With measurement noise (M∞ = 0.004) r decreases more slowly than without.",
-       runs=(" ".join(FIG1), " ".join(FIG2)), verdict=PARTLY,
+       runs=(" ".join(FIG1), " ".join(FIG2)), verdict=NOT_REPRODUCED,
        readings=("noise uniform ±0.004 held 0.01 s (the paper does not give the signal)",
                  "the paper: 'comparing Figure 2 with Figure 1, the resulting gain decreases "
-                 "at a slower rate': a difference visible on the figures"))
+                 f"at a slower rate': a difference seen on the figures, read as >= "
+                 f"{VISIBLE:.0%} of r's decrease over 100 s",
+                 "not reproduced (was partly, on the check 'slower at all', which noise "
+                 "entering (19) as (y^ - y)^2 can hardly fail): the decrease is 0.06 % "
+                 "smaller with the noise; a noise |m| <= M∞ moves (y^ - y)^2 near e = 0 by at "
+                 "most M∞² = 0.2 % of p2 (the bound below), and the worst pointwise noise "
+                 "m = -M∞ sign(e1) (solve_ivp of (18)-(19)) leaves r(100) 0.14 % higher: "
+                 "no noise within M∞ = 0.004 gives a visible difference with the "
+                 "printed p2 = 0.008, a finding about the paper's parameters"))
 def fig2_noise_slows_r() -> Measured:
     drops = {}
     for name, run in (("without noise", FIG1), ("with noise", FIG2)):
         _, r = _signal(run, "sign_indefinite", 2)
         drops[f"decrease of r over 100 s, {name}"] = float(r.max() - r[-1])
     a, b = drops.values()
-    drops["relative difference of the decreases"] = (a - b) / a
-    return Measured(b < a, drops, "holds (narrower): r decreases more slowly with noise, but "
-                    "by ~0.05 % of its decrease, not the visible difference of the paper's Figs. "
-                    "1-2: with this noise (y^ - y)^2 ~ M∞²/3 is tiny next to p2 = 0.008; the "
-                    "paper's noise signal is not given")
+    drops["relative slow-down of the decrease"] = (a - b) / a
+    cfg = compose_cached(FIG2)
+    drops["M∞² / p2 (largest change of (y^ - y)^2 - p2 near e = 0, relative)"] = (
+        float(cfg.noise.amplitude) ** 2 / float(cfg.observer.sign_indefinite.p2))
+    clean, worst = (worst_noise_r_end(FIG2, n) for n in (False, True))
+    drops["r(100) without noise (solve_ivp)"] = clean
+    drops["r(100) with the worst noise m = -M∞ sign(e1), relative rise"] = worst / clean - 1
+    return Measured((a - b) / a >= VISIBLE, drops,
+                    "r decreases more slowly with noise by 0.06 % of its decrease, not the "
+                    "visible difference of the paper's Figs. 1-2; with M∞ = 0.004, (y^ - y)^2 "
+                    "moves by at most M∞² next to p2 = 0.008")
 
 
 @claim(paper=PAPER, id="fig3_amplitude_decreases_with_p2", where="Section 3, Fig. 3, (20)",
