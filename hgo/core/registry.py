@@ -29,6 +29,10 @@ collects every registered claim as one test (``tests/test_claims.py``): it passe
 ``holds`` is true, and a ``not reproduced`` claim is a strict xfail whose reason carries
 the numbers. The report of ``hgo reproduce`` reads the same registry, so the tests and
 the report cannot disagree.
+
+An entry with ``verdict=HGO_MEASUREMENT`` is not a claim of the paper: it records what hgo
+measured on the paper's subject (its ``statement`` says what is measured, ``holds`` that
+the measurement's own checks passed); the report and README list it apart.
 """
 
 from __future__ import annotations
@@ -102,6 +106,10 @@ PARTLY = "partly"
 NOT_REPRODUCED = "not reproduced"
 THEORY_ONLY = "theory only"
 VERDICTS = (REPRODUCED, PARTLY, NOT_REPRODUCED, THEORY_ONLY)
+#: not a verdict: an entry that records what hgo measured on a paper's subject, which the
+#: paper does not claim (shown apart from the paper's claims in the report and README)
+HGO_MEASUREMENT = "hgo's measurement"
+LEDGER_KINDS = (*VERDICTS, HGO_MEASUREMENT)
 
 
 @dataclass(frozen=True)
@@ -142,6 +150,11 @@ class Claim:
     def key(self) -> str:
         return f"{self.paper}:{self.id}"
 
+    @property
+    def is_measurement(self) -> bool:
+        """hgo's own measurement, not a claim of the paper."""
+        return self.verdict == HGO_MEASUREMENT
+
 
 _REGISTRY: dict[str, Claim] = {}
 
@@ -150,8 +163,9 @@ def claim(*, paper: str, id: str, where: str, statement: str, verdict: str,
           runs: tuple[str, ...] = (), readings: tuple[str, ...] = (),
           slow: bool = False) -> Callable[[Callable[[], Measured]], Callable[[], Measured]]:
     """Register the decorated function as the check of a claim (see the module docstring)."""
-    if verdict not in VERDICTS:
-        raise ValueError(f"claim {paper}:{id}: verdict '{verdict}' not in {list(VERDICTS)}")
+    if verdict not in LEDGER_KINDS:
+        raise ValueError(f"claim {paper}:{id}: verdict '{verdict}' not in "
+                         f"{list(LEDGER_KINDS)}")
 
     def register(check: Callable[[], Measured]) -> Callable[[], Measured]:
         c = Claim(paper, id, where, statement, verdict, check, tuple(runs), tuple(readings),

@@ -33,11 +33,12 @@ from pathlib import Path
 import pandas as pd
 
 from hgo.core.registry import (
+    HGO_MEASUREMENT,
+    LEDGER_KINDS,
     NOT_REPRODUCED,
     PARTLY,
     REPRODUCED,
     THEORY_ONLY,
-    VERDICTS,
     all_claims,
     paper_names,
     paper_title,
@@ -58,6 +59,8 @@ VERDICT_LEGEND = {
                     "recovered; the measured numbers say by how much",
     THEORY_ONLY: "a statement about the theory (a condition, a formula) checked by "
                  "computation, with no simulation to compare",
+    HGO_MEASUREMENT: "not a claim of the paper: what hgo measured on the paper's subject, "
+                     "recorded with its numbers (listed apart from the claims)",
 }
 BOUND_LEGEND = {
     "✓": "the measured value is at or below the paper's bound",
@@ -102,6 +105,14 @@ class Section:
     @property
     def untested_bounds(self) -> list[dict]:
         return _bound_group(self.bounds, tested=False)
+
+    @property
+    def paper_claims(self) -> list[dict]:
+        return [c for c in self.claims if c["verdict"] != HGO_MEASUREMENT]
+
+    @property
+    def measurements(self) -> list[dict]:
+        return [c for c in self.claims if c["verdict"] == HGO_MEASUREMENT]
 
     @property
     def failed_checks(self) -> int:
@@ -303,22 +314,24 @@ def _cpu_model() -> str:
 def summary_rows(secs: list[Section]) -> list[dict]:
     rows = []
     for s in secs:
-        counts = {v: sum(c["verdict"] == v for c in s.claims) for v in VERDICTS}
+        counts = {v: sum(c["verdict"] == v for c in s.claims) for v in LEDGER_KINDS}
         figs = sum(f.source.exists() for f in s.figures)
-        rows.append({"paper": s.title, "anchor": s.paper, "claims": len(s.claims),
+        rows.append({"paper": s.title, "anchor": s.paper, "claims": len(s.paper_claims),
                      "counts": counts, "failed_checks": s.failed_checks,
                      "figures": f"{figs}/{len(s.figures)}"})
     return rows
 
 
 def registry_table() -> str:
-    """Markdown: per paper, its claims by declared verdict (README's "What reproduces")."""
+    """Markdown: per paper, its claims by declared verdict (README's "What reproduces"),
+    and apart from them, hgo's own measurements on its subject."""
     rows = []
     for paper in paper_names():
         claims = all_claims([paper])
         if claims:
-            rows.append({"paper": paper_title(paper), "claims": len(claims),
-                         **{v: sum(c.verdict == v for c in claims) for v in VERDICTS}})
+            rows.append({"paper": paper_title(paper),
+                         "claims": sum(not c.is_measurement for c in claims),
+                         **{v: sum(c.verdict == v for c in claims) for v in LEDGER_KINDS}})
     return _md_table(rows)
 
 
@@ -361,7 +374,7 @@ def _data_uri(path: Path) -> str:
 def render(template: str, secs: list[Section], prov: dict[str, str]) -> str:
     """``template`` (``report.md.j2`` or ``report.html.j2``) for these sections."""
     return _environment().get_template(template).render(
-        secs=secs, prov=prov, summary=summary_rows(secs), verdicts=VERDICTS,
+        secs=secs, prov=prov, summary=summary_rows(secs), verdicts=LEDGER_KINDS,
         verdict_legend=VERDICT_LEGEND, bound_legend=BOUND_LEGEND,
         any_failed=any(s.failed_checks for s in secs))
 
