@@ -88,7 +88,11 @@ def _ordered(values: list[float]) -> bool:
 @claim(paper=PAPER, id="bound_order", where="Sec. 3, display after the observer",
        statement="df2/dx2 <= Omega2 <= Omega1 <= df2max on M_x x M_u",
        verdict=PARTLY, readings=("C2: eps from the hbar equalities", "p = 0.9",
-                                 "grid 24 u x 300 x1 (log) x 60 x2"))
+                                 "grid 24 u x 300 x1 (log) x 60 x2",
+                                 "test (the narrower statement): df2/dx2 <= Omega2 and "
+                                 "Omega1 <= df2max at every grid point, hbar_o and hbar; "
+                                 "partly: Omega2 <= Omega1 fails on a share of the grid for "
+                                 "hbar_o (the numbers), reported, not banded"))
 def bound_order() -> Measured:
     """The narrower statement that holds: df2/dx2 <= Omega2 and Omega1 <= df2max at every
     grid point, for hbar_o and hbar; Omega2 <= Omega1 is reported (share of failing points,

@@ -138,7 +138,11 @@ def states_converge() -> Measured:
 
 @claim(paper=PAPER, id="parameters_converge", where="Figs. 4-5; Theorem 1",
        statement="theta^ of (7) converges to theta = (1/I, m g l/(2I)) (theta~ to a compact set)",
-       runs=NOMINAL, readings=READINGS, verdict=PARTLY)
+       runs=NOMINAL, readings=READINGS + (
+           "test (the narrower statement): mean theta^i on W within 5 % of theta_i and RMS "
+           "relative error on W < 10 % (theta~ in a small set); partly: theta^ does not "
+           "settle at theta, see 'theta^1 within 10 % for good after' (NaN: it leaves the "
+           "band inside W), reported, not required",), verdict=PARTLY)
 def parameters_converge() -> Measured:
     r = rows()
     true = dict(enumerate(true_theta(), start=1))  # (1/I, m g l/(2I)) of the config
