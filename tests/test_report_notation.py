@@ -30,10 +30,11 @@ def test_markdown_is_removed_from_plain_text():
     assert plain("a * b * c") == "a * b * c"  # products are not emphasis
 
 
-def test_a_bound_against_an_exact_zero_or_a_vacuous_one_never_holds():
+def test_a_bound_against_an_exact_zero_a_vacuous_one_or_itself_never_holds():
     assert bound_verdict(0.0, 3.98e5) == "metric is 0"
     assert bound_verdict(2e-7, 3.98e5) == "vacuous"
     assert bound_verdict(0.5, 1.0) == "✓" and bound_verdict(2.0, 1.0) == "✗"
+    assert bound_verdict(1.0, 1.0) == "equals the bound"  # e.g. V / (e^-eta V(0)) at t = 0
 
 
 def test_a_claim_shows_its_first_sentence_and_a_few_numbers():

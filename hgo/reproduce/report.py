@@ -11,8 +11,9 @@ A claim shows one line of its statement, the few numbers that decide it (at most
 verdict; the whole statement, every measured number and the readings are in a collapsed
 detail. The self-check (does the measurement agree with the declared verdict?) appears
 only where it fails. Bounds are split into those the run tests and those it cannot: a
-vacuous bound (more than ``VACUOUS_FACTOR`` times the measured value) and any bound
-against a measured value of exactly 0 are listed apart and never shown as holding.
+vacuous bound (more than ``VACUOUS_FACTOR`` times the measured value), any bound against
+a measured value of exactly 0 and a measured value equal to its bound (an identity) are
+listed apart and never shown as holding.
 """
 
 from __future__ import annotations
@@ -69,6 +70,8 @@ BOUND_LEGEND = {
                "it holds but says nothing",
     "metric is 0": "the measured value is exactly 0 (no error at all): any bound holds and "
                    "the run does not test it",
+    "equals the bound": "the measured value is the bound itself (an identity, e.g. a ratio "
+                        "that is 1 at t = 0 by definition): listed apart, not as a test",
 }
 
 
@@ -129,12 +132,15 @@ def self_check(verdict: str, holds: bool | None) -> str:
 
 
 def bound_verdict(value: float, bound: float, factor: float = VACUOUS_FACTOR) -> str:
-    """✓ / ✗ / ``vacuous`` (:func:`hgo.outputs.metrics.verdict`), and ``metric is 0`` for a
-    bound against an exact zero, which the metrics table counts as ✓."""
+    """✓ / ✗ / ``vacuous`` (:func:`hgo.outputs.metrics.verdict`), ``metric is 0`` for a
+    bound against an exact zero and ``equals the bound`` for a value that is the bound
+    itself, both of which the metrics table counts as ✓."""
     if not (math.isfinite(bound)) or not math.isfinite(value) or value > bound:
         return "✗"
     if value == 0:
         return "metric is 0"
+    if value == bound:
+        return "equals the bound"
     return "vacuous" if factor * abs(value) < bound else "✓"
 
 
