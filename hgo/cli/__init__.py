@@ -135,11 +135,20 @@ COMMANDS = {
 }
 
 
+def commands_text(width: int = 100) -> str:
+    """The commands and what each does, wrapped to ``width`` under its name."""
+    import textwrap
+
+    return "\n".join(textwrap.fill(text, width, initial_indent=f"  {name:10s} ",
+                                    subsequent_indent=" " * 13)
+                      for name, (_, text) in COMMANDS.items())
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     parser = argparse.ArgumentParser(
         prog="hgo", description="hgo: high-gain observer experiments.",
-        epilog="\n".join(f"  {name:10s} {text}" for name, (_, text) in COMMANDS.items()),
+        epilog=commands_text(),
         formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("command", choices=COMMANDS, metavar="command",
                         help="one of: " + ", ".join(COMMANDS))
