@@ -22,7 +22,7 @@ ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 # pages that must have rendered maths; any other page with maths is checked the same way
 # (add the own-plant tutorial here once its equations are final)
-MATHS_PAGES = ["tutorials/sweep"]
+MATHS_PAGES = ["tutorials/sweep", "reference/observers", "reference/components"]
 SCREENS = {"tutorials/sweep": "docs-tutorial-sweep.png",
            "reference/observers": "docs-reference-observers.png"}
 WIDTH = 1400
@@ -134,3 +134,58 @@ def test_pages_in_a_headless_browser(site, tmp_path):
             continue
         browser.screenshot(site / name / "index.html", ROOT / "outputs" / file,
                            tmp_path / "shot", WIDTH, 2400)
+
+
+# ------------------------------------------------------------- the reference's examples
+OBJECT = re.compile(r"^::: ([\w.]+)$", re.M)
+EXAMPLE = re.compile(r"```python\n(.*?)```", re.S)
+PRINTED = re.compile(r"^\s*print\(.*\)\s+# (.*)$", re.M)
+# what the reference must show with a runnable example (issue 44)
+MUST_HAVE_EXAMPLES = {"hgo.core.components.Plant", "hgo.core.components.Params",
+                      "hgo.observers.normal_form.standard_hgo",
+                      "hgo.observers.normal_form.lowpower_hgo",
+                      "hgo.observers.circle_criterion.circle_criterion_observer",
+                      "hgo.plants.normal_form.normal_form_plant",
+                      "hgo.plants.circle_form.circle_form_plant", "hgo.noise.NoiseModel",
+                      "hgo.outputs.metrics"}
+
+
+def _object(path: str):
+    import importlib
+
+    module, _, name = path.rpartition(".")
+    try:
+        return getattr(importlib.import_module(module), name)
+    except (ImportError, AttributeError):
+        return importlib.import_module(path)
+
+
+def reference_examples() -> dict[str, list[str]]:
+    """Object shown on a reference page (``::: path``) -> the python blocks of its
+    docstring."""
+    import inspect
+
+    found = {}
+    for page in sorted((DOCS / "reference").glob("*.md")):
+        for path in OBJECT.findall(page.read_text()):
+            doc = inspect.getdoc(_object(path)) or ""
+            found[path] = EXAMPLE.findall(doc)
+    return found
+
+
+def test_every_example_of_the_reference_runs_and_prints_what_it_says(capsys):
+    """Every python block in the docstring of an object on a reference page runs, and each
+    ``print(...)  # text`` prints ``text``."""
+    import textwrap
+
+    examples = reference_examples()
+    missing = sorted(p for p in MUST_HAVE_EXAMPLES if not examples.get(p))
+    assert not missing, f"no example in the docstring of {missing}"
+    for path, blocks in examples.items():
+        for body in blocks:
+            code = textwrap.dedent(body)
+            capsys.readouterr()
+            exec(compile(code, f"<example of {path}>", "exec"), {"__name__": "__example__"})
+            printed = capsys.readouterr().out.splitlines()
+            said = PRINTED.findall(code)
+            assert printed == said, f"{path}: printed {printed}, its comments say {said}"
