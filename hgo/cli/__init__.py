@@ -103,6 +103,12 @@ def _list(args: list[str]) -> int:
     return main(args)
 
 
+def _plot(args: list[str]) -> int:
+    from hgo.cli.plot import main
+
+    return main(args)
+
+
 def _view(args: list[str]) -> int:
     from hgo.cli.view import main
 
@@ -130,6 +136,9 @@ COMMANDS = {
                                     "--compare A B)"),
     "show": (_runs_command("show"), "one run: status, provenance, config, metrics"),
     "export": (_runs_command("export"), "a recording as CSV or Parquet (--format csv|parquet)"),
+    "plot": (_plot, "the trade-off figure of a sweep (a metric against one swept key, one line "
+                    "per value of another, minima and their power law), or a run's states "
+                    "and errors; png and pdf"),
     "view": (_view, "open runs (a sweep directory: all its jobs) in the Rerun viewer, each its "
                     "own recording (--web: serve to a browser and print the ports to forward)"),
 }
