@@ -382,7 +382,9 @@ def simulate_config(cfg: DictConfig) -> MemoryRun:
     """Build, simulate, post-process and tabulate the metrics of a composed config."""
     exp = build(cfg)
     log.info("integrating t = 0 .. %g s (%s)", exp.solver.t_end, exp.solver.method)
-    with run_seconds() as seconds, compile_progress(exp.solver.method):
+    what = (f"the kernel of plant {exp.system.plant.name} with observers "
+            + ", ".join(o.name for o in exp.system.observers))
+    with run_seconds() as seconds, compile_progress(exp.solver.method, what):
         traj = run_experiment(exp)
     t0 = time.perf_counter()
     post = postprocess(cfg, exp, traj) if traj.ok else PostOutput()
