@@ -79,12 +79,10 @@ def draw(frame: pd.DataFrame, title: str = ""):
     return fig
 
 
-def states_figure(run_dir: str | Path, out: str | Path | None = None,
-                  formats: tuple[str, ...] = ("png", "pdf")) -> list[Path]:
+def states_figure(run_dir: str | Path, out: str | Path | None = None) -> list[Path]:
     """Write the default figure of the run in ``run_dir`` (``<run_dir>/states.png`` and
     ``.pdf``, or ``out`` + each suffix); the files written."""
-    import matplotlib.pyplot as plt
-
+    from hgo.outputs.figures import save_png_and_pdf
     from hgo.outputs.recording import read_recording
 
     run_dir = Path(run_dir)
@@ -92,12 +90,4 @@ def states_figure(run_dir: str | Path, out: str | Path | None = None,
     if not recording.is_file():
         raise ConfigError("run", f"{run_dir} has no recording.rrd (recording=off?)")
     fig = draw(read_recording(recording), title=run_dir.resolve().name)
-    base = Path(out) if out is not None else run_dir / "states"
-    files = [base.with_name(f"{base.name}.{fmt}") for fmt in formats]
-    fig.tight_layout()
-    try:
-        for path in files:
-            fig.savefig(path)
-    finally:
-        plt.close(fig)
-    return files
+    return save_png_and_pdf(fig, Path(out) if out is not None else run_dir / "states")

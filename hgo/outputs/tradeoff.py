@@ -217,8 +217,7 @@ def symbol_of(key: str) -> str:
 
 
 def plot(source: str | Path | pd.DataFrame, metric: str | None = None, x: str | None = None,
-         by: str | None = None, out: str | Path | None = None,
-         formats: tuple[str, ...] = ("png", "pdf")) -> Tradeoff:
+         by: str | None = None, out: str | Path | None = None) -> Tradeoff:
     """Draw the trade-off figure of a sweep and write it as ``png`` and ``pdf``.
 
     Args:
@@ -229,8 +228,8 @@ def plot(source: str | Path | pd.DataFrame, metric: str | None = None, x: str | 
         x: the swept key on the horizontal axis (default: the first swept key).
         by: the swept key with one line per value (default: the second; none for a
             one-key sweep).
-        out: the file's path without suffix (default ``<source>/tradeoff_<metric>``).
-        formats: the files written, by suffix.
+        out: the files' path without suffix (default ``<source>/tradeoff_<metric>``): a
+            ``.png`` and a ``.pdf`` are written.
 
     Returns:
         The keys, the minima of every line, the power-law fits (``Tradeoff.fits``, with
@@ -254,8 +253,7 @@ def plot(source: str | Path | pd.DataFrame, metric: str | None = None, x: str | 
         print(f"{t.fits[0].k:.2f}")  # 0.34
         ```
     """
-    import matplotlib.pyplot as plt
-
+    from hgo.outputs.figures import save_png_and_pdf
     from hgo.outputs.runs import load
 
     table = source if isinstance(source, pd.DataFrame) else load(source)
@@ -266,14 +264,6 @@ def plot(source: str | Path | pd.DataFrame, metric: str | None = None, x: str | 
         if isinstance(source, pd.DataFrame):
             raise ConfigError("out", "a table has no folder: give out=<path without suffix>")
         out = Path(source) / f"tradeoff_{result.metric}"
-    out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    files = [out.with_name(f"{out.name}.{fmt}") for fmt in formats]
-    fig.tight_layout()
-    try:
-        for path in files:
-            fig.savefig(path)
-    finally:
-        plt.close(fig)
-    result.files = files
+    Path(out).parent.mkdir(parents=True, exist_ok=True)
+    result.files = save_png_and_pdf(fig, out)
     return result
