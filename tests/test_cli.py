@@ -102,7 +102,7 @@ def test_metrics_table_fits_100_columns(workdir):
     table = (single.stdout + single.stderr).split("metrics (all columns in metrics.csv):")[1]
     rows = []
     for line in table.splitlines()[1:]:
-        if line.startswith(("[", "ok:")) or not line.strip():
+        if line.startswith(("[", "ok:", "wrote:")) or not line.strip():
             break
         rows.append(line)
     assert len(rows) > 10 and max(len(r) for r in rows) <= 100, rows

@@ -28,7 +28,9 @@ def test_console_table_marks_rows_with_notes_and_prints_them_whole():
     text = compact_table(_table(["short note", None, long]))
     lines = text.splitlines()
     assert "q1 [1]" in lines[2] and "[" not in lines[3] and "q3 [2]" in lines[4]
-    assert lines[5:] == ["notes:", "  [1] short note", f"  [2] {long.strip()}"]
+    assert lines[5:7] == ["notes:", "  [1] short note"]
+    assert " ".join(ln.strip() for ln in lines[7:]) == f"[2] {long.strip()}"  # whole
+    assert all(len(ln) <= 100 for ln in lines) and lines[8].startswith("      Sanfelice")
     assert "notes:" not in compact_table(_table(None))
 
 

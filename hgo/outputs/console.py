@@ -8,6 +8,7 @@ for an ensemble, the members' mean, std, min, max and the counts of members ok /
 from __future__ import annotations
 
 import math
+import textwrap
 from pathlib import Path
 
 import pandas as pd
@@ -51,7 +52,7 @@ def _notes(rows: pd.DataFrame) -> list[str]:
 def compact_table(table: pd.DataFrame, width: int = WIDTH) -> str:
     """The metrics of a run in at most ``width`` columns, duplicates dropped; a row with a
     note (the ``note`` column some post-processors fill) is marked ``[k]`` and its note
-    is printed whole below the table."""
+    is printed whole below the table (wrapped to ``width``)."""
     rows = table.drop_duplicates(subset=["observer", "quantity"])
     notes = _notes(rows)
     distinct = list(dict.fromkeys(n for n in notes if n))
@@ -68,7 +69,9 @@ def compact_table(table: pd.DataFrame, width: int = WIDTH) -> str:
                      f" {_verdict(r, bound):>8}")
     if distinct:
         lines.append("notes:")
-        lines += [f"  [{k}] {note}" for k, note in enumerate(distinct, 1)]
+        lines += [textwrap.fill(note, width, initial_indent=f"  [{k}] ",
+                                subsequent_indent=" " * (len(str(k)) + 5))
+                  for k, note in enumerate(distinct, 1)]
     return "\n".join(lines)
 
 
