@@ -20,6 +20,7 @@ if TYPE_CHECKING:  # what the lazy names are, for type checkers and readers
     from hgo.api import HgoError, Result, compose, run, sweep
     from hgo.outputs import runs
     from hgo.outputs.recording import read_recording
+    from hgo.outputs.tradeoff import plot
 
 # public name -> (module, attribute; None: the module itself)
 _LAZY: dict[str, tuple[str, str | None]] = {
@@ -30,10 +31,11 @@ _LAZY: dict[str, tuple[str, str | None]] = {
     "HgoError": ("hgo.core.errors", "HgoError"),
     "read_recording": ("hgo.outputs.recording", "read_recording"),
     "runs": ("hgo.outputs.runs", None),
+    "plot": ("hgo.outputs.tradeoff", "plot"),
 }
 
-__all__ = ["HgoError", "Result", "__version__", "compose", "read_recording", "run", "runs",
-           "sweep"]
+__all__ = ["HgoError", "Result", "__version__", "compose", "plot", "read_recording", "run",
+           "runs", "sweep"]
 
 
 def _version() -> str:

@@ -21,7 +21,29 @@ from hgo.engine.simulate import Noise
 
 @dataclass(frozen=True)
 class NoiseModel:
-    """``kind`` in {none, uniform, gaussian}; amplitude M_inf (uniform) or std (gaussian)."""
+    r"""Sample-and-hold measurement noise $m$ added to the measured channels: $y = h(x) + m$.
+
+    Sample $k$ holds on $[k T, (k+1) T)$, $T$ = ``period``; the engine ends a step at
+    every sample instant. Samples are drawn once per run from ``numpy.random.default_rng
+    (seed)``.
+
+    Attributes:
+        kind: ``none``, ``uniform`` ($m_k \sim U[-M, M]$) or ``gaussian``
+            ($m_k \sim \mathcal N(0, \sigma^2)$). Default ``none``.
+        amplitude: $M \ge 0$ (uniform; units of $y$); must stay 0 for the other kinds.
+        std: $\sigma \ge 0$ (gaussian; units of $y$); must stay 0 for the other kinds.
+        period: $T > 0$ (s), the hold time of one sample. Default 0.01.
+        channels: the noisy output channels (default ``(0,)``); the others are exact.
+
+    Example:
+        ```python
+        from hgo.noise import noise_model
+
+        m = noise_model("gaussian", std=1e-3, period=0.01)
+        noise = m.sample(t_end=1.0, n_outputs=1, seed=0)
+        print(noise.samples.shape, m.bound)  # (101, 1) inf
+        ```
+    """
 
     kind: str = "none"
     amplitude: float = 0.0
@@ -84,7 +106,8 @@ class NoiseModel:
 
 def noise_model(kind: str = "none", amplitude: float = 0.0, std: float = 0.0,
                 period: float = 0.01, channels: Sequence[int] = (0,)) -> NoiseModel:
-    """Factory used by the ``noise`` config group."""
+    """The ``noise`` config group's factory (``noise=uniform noise.amplitude=1e-3``):
+    :class:`NoiseModel` after checking every argument's type (one-line errors)."""
     for key, value in (("amplitude", amplitude), ("std", std), ("period", period)):
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise ConfigError(f"noise.{key}", f"must be a number, got {value!r}")

@@ -291,6 +291,9 @@ def test_user_phi0_numba_cannot_compile_runs_in_python_with_one_warning() -> Non
         traj = simulate(System(van_der_pol_plant(), [obs]), solver, no_noise(1))
     msgs = [str(w.message) for w in caught if "pure-Python path" in str(w.message)]
     assert len(msgs) == 1, msgs
+    # the function numba failed on, where, and numba's own first error line (issue 44)
+    assert "could not compile _python_phi0 (" in msgs[0] and "test_normal_form.py" in msgs[0]
+    assert "Untyped global name 'GAINS'" in msgs[0], msgs[0]
     assert traj.ok
     ref = simulate(System(van_der_pol_plant(), [standard_hgo(
         "s", 2, eps=0.1, phi0=__import__("hgo.plants.van_der_pol", fromlist=["phi0"]).phi0,

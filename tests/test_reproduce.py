@@ -6,10 +6,9 @@ The browser check needs Chromium (``.ci/run`` installs Debian's ``chromium`` whe
 from __future__ import annotations
 
 import re
-import shutil
-import subprocess
 from pathlib import Path
 
+import browser  # tests/browser.py
 import pytest
 
 from hgo.core.registry import all_claims
@@ -37,11 +36,6 @@ CHECK_JS = r"""<script>window.addEventListener('load', function () {
                     ' dangling=' + dangling.length + ' cells=' + cells.length +
                     ' longest=' + longest + ' markdown=' + markdown;
   document.body.appendChild(out); });</script>"""
-CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
-                  "--no-first-run", "--disable-background-networking",
-                  "--disable-component-update", "--disable-sync", "--hide-scrollbars"]
-
-
 @pytest.fixture(scope="module")
 def report(tmp_path_factory):
     root = tmp_path_factory.mktemp("reproduce")
@@ -77,41 +71,25 @@ def test_unknown_paper_is_one_line_error(capsys):
 SCREENS = {1400: "report-1400.png", 800: "report-800.png"}  # in outputs/, looked at
 
 
-def _check(chromium: str, page: Path, profile: Path, width: int) -> dict[str, int]:
-    args = [chromium, *CHROMIUM_FLAGS, f"--user-data-dir={profile}",
-            f"--window-size={width},900"]
-    dom = subprocess.run([*args, "--virtual-time-budget=5000", "--dump-dom", page.as_uri()],
-                         capture_output=True, text=True, timeout=60).stdout
-    found = re.search(r"CHECK ((?:\w+=\d+ ?)+)", dom)
-    assert found, dom[-2000:]
-    return {k: int(v) for k, v in (f.split("=") for f in found.group(1).split())}
-
-
 def test_report_in_a_headless_browser(report, tmp_path):
     """Chromium loads report.html at 1400 and 800 px: every figure decodes, no table is
     wider than the page, every link of the table of contents has its target, no cell of
     a claims table shows more than 400 characters (the rest is in collapsed details), no
     Markdown is left in the text; screenshots at both widths are saved to outputs/."""
-    chromium = shutil.which("chromium") or shutil.which("chromium-browser")
-    if chromium is None:
-        pytest.skip("chromium is not installed (.ci/run installs it)")
+    browser.chromium()
     _, out = report
     page = out / "checked.html"  # beside report.html: its PDF links resolve the same
     page.write_text((out / "report.html").read_text().replace("</body>", CHECK_JS + "</body>"))
     n_claims = len(all_claims([PAPER]))
     for width, name in SCREENS.items():
-        found = _check(chromium, page, tmp_path / f"profile{width}", width)
+        found = browser.check(page, tmp_path / f"profile{width}", width)
         assert found["images"] == 5 and found["broken"] == 0, found
         assert found["overflowing"] == 0, found
         assert found["toc"] >= 5 and found["dangling"] == 0, found
         assert found["cells"] == 4 * n_claims and found["longest"] <= 400, found
         assert found["markdown"] == 0, found
-        shot = ROOT / "outputs" / name
-        shot.parent.mkdir(exist_ok=True)
-        subprocess.run([chromium, *CHROMIUM_FLAGS, f"--user-data-dir={tmp_path / 'shot'}",
-                        f"--screenshot={shot}", f"--window-size={width},5000",
-                        (out / "report.html").as_uri()], capture_output=True, timeout=60)
-        assert shot.stat().st_size > 10_000
+        browser.screenshot(out / "report.html", ROOT / "outputs" / name, tmp_path / "shot",
+                           width, 5000)
 
 
 def test_readme_what_reproduces_table_is_the_registry():

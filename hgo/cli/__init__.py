@@ -103,6 +103,12 @@ def _list(args: list[str]) -> int:
     return main(args)
 
 
+def _plot(args: list[str]) -> int:
+    from hgo.cli.plot import main
+
+    return main(args)
+
+
 def _view(args: list[str]) -> int:
     from hgo.cli.view import main
 
@@ -130,16 +136,28 @@ COMMANDS = {
                                     "--compare A B)"),
     "show": (_runs_command("show"), "one run: status, provenance, config, metrics"),
     "export": (_runs_command("export"), "a recording as CSV or Parquet (--format csv|parquet)"),
+    "plot": (_plot, "the trade-off figure of a sweep (a metric against one swept key, one line "
+                    "per value of another, minima and their power law), or a run's states "
+                    "and errors; png and pdf"),
     "view": (_view, "open runs (a sweep directory: all its jobs) in the Rerun viewer, each its "
                     "own recording (--web: serve to a browser and print the ports to forward)"),
 }
+
+
+def commands_text(width: int = 100) -> str:
+    """The commands and what each does, wrapped to ``width`` under its name."""
+    import textwrap
+
+    return "\n".join(textwrap.fill(text, width, initial_indent=f"  {name:10s} ",
+                                    subsequent_indent=" " * 13)
+                      for name, (_, text) in COMMANDS.items())
 
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     parser = argparse.ArgumentParser(
         prog="hgo", description="hgo: high-gain observer experiments.",
-        epilog="\n".join(f"  {name:10s} {text}" for name, (_, text) in COMMANDS.items()),
+        epilog=commands_text(),
         formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("command", choices=COMMANDS, metavar="command",
                         help="one of: " + ", ".join(COMMANDS))

@@ -116,6 +116,9 @@ def main(cfg: DictConfig) -> None:
         print(job_line(hc.job.num + 1, n, list(hc.overrides.task), status,
                        _key_metric(table)) + f"  ({out_dir})", flush=True)
     else:
+        from hgo.outputs.console import outputs_listing
+
+        print("\n".join(outputs_listing(out_dir)), flush=True)
         print(f"{status}: outputs in {out_dir}", flush=True)
 
 

@@ -13,6 +13,7 @@ import pandas as pd
 
 from hgo.core.errors import one_line
 from hgo.outputs.runs import BadRunRecord, load, read_run_json
+from hgo.outputs.user_code import differences
 
 SHOWN = ["path", "run_name", "status", "started", "seconds.simulate"]
 
@@ -137,6 +138,10 @@ def compare(a: str, b: str) -> int:
         print(f"{section}: {len(diff)} difference(s)")
         for k, va, vb in diff:
             print(f"  {k:50s} {va!s:>22} {vb!s:>22}")
+    code = differences(ia.get("user_code") or {}, ib.get("user_code") or {})
+    print(f"user code: {len(code)} difference(s)")
+    for k, va, vb in code:
+        print(f"  {k}\n    A: {va}\n    B: {vb}")
     return 0
 
 

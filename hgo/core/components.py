@@ -56,29 +56,53 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from hgo.core.errors import ConfigError
+
 Constant = int | float | bool | tuple | Callable
 """A compile-time constant of a component: a number, a flag, a tuple of numbers (e.g.
 the output of each block), or a function the component calls (a user's phi)."""
 
 
 class Params:
-    """Named parameters of a component (module doc): ``Params(constants, **values)``.
+    """Named parameters of a component: ``Params(constants, **values)``.
 
-    ``values``: name -> float or float array of fixed shape (run time: the flat vector
-    :attr:`vector`, in declaration order, arrays row-major); ``constants``: name ->
-    constant (compile time: literals of the generated kernel). A name is one or the
-    other, and no attribute of a numpy array (the vector answers to the names too).
+    A component's functions read ``p.eps``, ``p.A[i, j]``, ``p.n``: the kernel builds that
+    record from the flat vector with constant offsets and shapes.
+
+    Args:
+        constants: name -> compile-time constant (int, float, bool, tuple of numbers, or a
+            function the component calls): written into the kernel's text as literals, so
+            ``range(p.n)`` has a fixed trip count and a branch on a flag is decided at
+            compile time. A change compiles a new kernel.
+        **values: name -> float or float array of fixed shape: run-time values, the flat
+            vector :attr:`vector` (declaration order, arrays row-major) that sweeps and
+            ensembles vary without compiling again.
+
+    A name is either a value or a constant, never both, and never an attribute of numpy
+    arrays (``mean``, ``T``, ``size``: the vector answers to the names too) nor private.
+
+    Example:
+        ```python
+        import numpy as np
+        from hgo.core.components import Params
+
+        p = Params({"n": 2}, eps=0.01, A=np.eye(2))
+        print(p.names, p.shapes, p.index("A"))  # ('eps', 'A') ((), (2, 2)) slice(1, 5, None)
+        print(p.vector.eps, p.vector.n, p.vector.A[1, 1])  # 0.01 2 1.0
+        ```
     """
 
     __slots__ = ("constants", "names", "offsets", "shapes", "vector")
 
-    def __init__(self, constants: Mapping[str, Constant] | None = None, /, **values) -> None:
+    def __init__(self, constants: Mapping[str, Constant] | None = None, /,
+                 **values: float | np.ndarray) -> None:
         self.constants = {k: _constant(k, v) for k, v in (constants or {}).items()}
         for name in [*self.constants, *values]:
             _check_name(name)
         both = set(self.constants) & set(values)
         if both:
-            raise ValueError(f"parameters {sorted(both)} are given as values and constants")
+            raise ValueError(f"parameters {sorted(both)} are given both as run-time values "
+                             "and as compile-time constants (one name, one parameter)")
         arrays = [np.asarray(v, float) for v in values.values()]
         self.names = tuple(values)
         self.shapes = tuple(a.shape for a in arrays)
@@ -198,6 +222,26 @@ def _constant(name: str, value) -> Constant:
                      "or function")
 
 
+def model_values(key: str, model_params: Mapping | None, own: Mapping[str, str]) -> dict:
+    """The named run-time values a user's model reads (``p.mu``), given as ``model_params``
+    of the component at config key ``key``, checked against the component's own parameter
+    names ``own`` (name -> what it is): the model and the component share one record ``p``,
+    so a clash is refused in one line naming both keys and every reserved name (a name of
+    numpy arrays' attributes, ``mean`` or ``T``, is refused the same way)."""
+    given = dict(model_params or {})
+    allowed = "any name but " + ", ".join(sorted(own)) + " and numpy arrays' attributes"
+    for name in given:
+        if name in own:
+            raise ConfigError(f"{key}.model_params.{name}", f"'{name}' is the component's "
+                              f"own parameter ({key} -> p.{name}: {own[name]}); rename the "
+                              f"model's, e.g. {name}_m", allowed)
+        if hasattr(np.ndarray, name) or name.startswith("_"):
+            raise ConfigError(f"{key}.model_params.{name}", f"'{name}' is an attribute of "
+                              f"numpy arrays (p.{name} would be ambiguous); rename it, e.g. "
+                              f"{name}_m", allowed)
+    return given
+
+
 def user_function(key: str, value: object) -> Callable:
     """A user's function given for config key ``key``: a callable, or what Hydra makes
     of ``{_target_: module.function, _partial_: true}`` (a partial without arguments).
@@ -232,10 +276,50 @@ def no_update(t, z, d, y, u, p):  # noqa: ARG001 - fixed signature
 
 @dataclass
 class Plant(Named):
-    """A plant ``dx/dt = f(t, x, u)``, ``y = h(t, x)`` (noise is added by the engine).
+    r"""A plant $\dot x = f(t, x, u)$, $y = h(t, x)$ (the engine adds the noise to $y$).
 
-    ``output_state`` is the index of the state that measured channel 0 reads; it
-    defines ŷ for the output-error metric (Sanfelice & Praly (11)).
+    The functions are compiled by numba into one kernel with the observers: they use the
+    numba subset (scalar arithmetic, loops, indexing), write their outputs in place, and
+    every function they call must itself compile (a helper decorated with
+    ``numba.njit``). A plant whose functions do not compile still runs on a slow
+    pure-Python path, with a warning naming the function and numba's first error line.
+
+    Attributes:
+        name: the plant's name (``/plant/...`` in the recording).
+        state_names: names of $x$ ($n_x$); recorded as ``/plant/x/<name>``.
+        output_names: names of the measured channels $y$ ($n_y$).
+        input_names: names of the inputs $u$ ($n_u$, may be empty).
+        x0: $x(0)$, shape $(n_x,)$.
+        p: the parameters: a :class:`Params` (read by name, ``p.mu``) or a float array.
+        f: ``f(t, x, u, p, dx)`` writes $\dot x$ into ``dx`` ($n_x$).
+        h: ``h(t, x, p, y)`` writes the noise-free outputs into ``y`` ($n_y$).
+        output_state: the state that channel 0 measures: it defines $\hat y$ of the
+            output-error metric (Sanfelice & Praly (11)). Default 0.
+        spectral_radius: a bound on $|\lambda(\partial f/\partial x)|$ (1/s): caps the
+            fixed RK4 step. Default 0 (no cap).
+        breaks: optional ``breaks(p) -> sequence of float``: instants (s) where ``f`` or
+            ``h`` jump in $t$; a step ends exactly there.
+        jac_f: optional ``jac_f(t, x, u, p, J)``: ``J[i, j]`` $= \partial f_i/\partial x_j$
+            ($n_x \times n_x$), for observers built from the plant (Kalman filters).
+        jac_h: optional ``jac_h(t, x, p, C)``: ``C[k, j]`` $= \partial h_k/\partial x_j$
+            ($n_y \times n_x$).
+
+    Example:
+        ```python
+        from hgo.core.components import Params, Plant
+
+        def f(t, x, u, p, dx):  # Duffing: x1' = x2, x2' = -d x2 - a x1 - b x1^3 + u
+            dx[0] = x[1]
+            dx[1] = -p.d * x[1] - p.a * x[0] - p.b * x[0] ** 3 + u[0]
+
+        def h(t, x, p, y):
+            y[0] = x[0]
+
+        plant = Plant(name="duffing", state_names=["x1", "x2"], output_names=["y"],
+                      input_names=["u"], x0=[1.0, 0.0], p=Params(d=0.2, a=1.0, b=1.0),
+                      f=f, h=h)
+        print(plant.nx, plant.p.b, plant.params.names)  # 2 1.0 ('d', 'a', 'b')
+        ```
     """
 
     name: str
@@ -259,7 +343,40 @@ class Plant(Named):
 
 @dataclass
 class Observer(Named):
-    """An observer with continuous state z, discrete state d and parameters p."""
+    r"""An observer with continuous state $z$, discrete state $d$ and parameters $p$.
+
+    $\dot z = f(t, z, d, y, u)$ between steps; ``update`` may change $z$ and $d$ between
+    steps (gain switches, timers, saturations: hybrid logic never makes a step straddle a
+    jump); ``estimate`` gives $\hat x$ of the plant states ``estimated_states``. The
+    functions are compiled with the plant (numba's subset; helpers they call must be
+    ``numba.njit``-compiled).
+
+    Attributes:
+        name: the observer's name (``/observer/<name>/...`` in the recording).
+        state_names: names of $z$ ($n_z$).
+        disc_names: names of $d$, the discrete state ``update`` writes (may be empty).
+        estimated_states: the plant state indices ``estimate`` writes, in order.
+        z0: $z(0)$, shape $(n_z,)$.
+        d0: $d(0)$, shape ``(len(disc_names),)``.
+        p: the parameters (:class:`Params`, read by name, or a float array).
+        f: ``f(t, z, d, y, u, p, dz)`` writes $\dot z$ into ``dz``.
+        estimate: ``estimate(t, z, d, p, xhat)`` writes $\hat x$
+            (``len(estimated_states)``).
+        update: ``update(t, z, d, y, u, p)``, the discrete logic (default: none).
+        spectral_radius: the largest $|\lambda|$ of the stiffest linear part (1/s): caps
+            the fixed RK4 step (a high-gain observer's is about $1/\varepsilon$).
+        stiffness: optional ``stiffness(t, z, d, p) -> float``, the spectral radius now
+            (a switched gain); replaces the constant cap.
+        signals: extra recorded signals, name -> state columns (``{"L": [2]}``).
+        bounds: theoretical bounds of metrics, quantity -> value
+            (``{"mean_sq_output_error": p2}``).
+        reads_outputs: the measured channels ``f``/``update`` read (default ``[0]``).
+        reads_inputs: the plant inputs they read (default none).
+
+    The generic observers (:mod:`hgo.observers.normal_form`,
+    :mod:`hgo.observers.circle_criterion`) are built by factories; see the observers'
+    reference page.
+    """
 
     name: str
     state_names: list[str]
@@ -293,7 +410,17 @@ class Observer(Named):
 
 @dataclass
 class Controller(Named):
-    """Output feedback ``u = k(t, xhat, y)`` using the estimate of observer ``observer``."""
+    r"""Output feedback $u = k(t, \hat x, y)$ from the estimate of observer ``observer``.
+
+    Attributes:
+        name: the controller's name.
+        p: its parameters (:class:`Params` or a float array).
+        u: ``u(t, xhat, y, p, u)`` writes every plant input into ``u`` ($n_u$).
+        observer: the observer whose $\hat x$ it reads (``None``: open loop).
+        reads_outputs: the measured channels ``u`` reads.
+        reads_estimate: the entries of $\hat x$ it reads.
+        breaks: optional ``breaks(p)``: instants (s) where ``u`` jumps or has a corner.
+    """
 
     name: str
     p: np.ndarray

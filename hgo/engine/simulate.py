@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import math
 import pickle
+import re
 import warnings
 from dataclasses import dataclass, replace
 
@@ -249,9 +250,8 @@ def _call(system: System, method: str, fname: str, *args, noisy: bool = True):
     except Exception as err:  # numba typing/lowering errors of user components
         if type(err).__module__.split(".")[0] != "numba":
             raise
-        first = _reason(str(err))
-        warnings.warn(f"hgo: numba could not compile this system ({first}); running on the "
-                      "pure-Python path (slow).", RuntimeWarning, stacklevel=3)
+        warnings.warn(f"hgo: numba could not compile {numba_failure(str(err))}; running on "
+                      "the pure-Python path (slow).", RuntimeWarning, stacklevel=3)
         module = load_kernel(system, compiled=False, method=method, noisy=noisy)
         return interruptible(getattr(module, fname), args, args[-1])
 
@@ -283,6 +283,27 @@ def _first_compiled(module, fname: str):
     """The kernel function, compiled under its cache entry's lock on its first call
     (:func:`hgo.engine.codegen.compiled_first`): no two processes compile it at once."""
     return compiled_first(getattr(module, fname), module.__file__)
+
+
+_ANSI = re.compile(r"\x1b\[[0-9;]*m")
+_WHERE = re.compile(r'^File "(?P<file>[^"]+)", line (?P<line>\d+):')
+_DEF = re.compile(r"^def (?P<name>\w+)\(")
+
+
+def numba_failure(message: str) -> str:
+    """Where numba's compile failed and why, in one line: ``my_phi0 (t.py, line 11):
+    Untyped global name 'helper': ...``. The innermost failure of a numba error comes
+    first: its first ``File "...", line N:`` names the source of the function that failed
+    (its ``def`` is the next line) and the line before it is numba's error."""
+    lines = [_ANSI.sub("", ln).strip() for ln in message.splitlines()]
+    for k, line in enumerate(lines):
+        where = _WHERE.match(line)
+        if not where:
+            continue
+        reason = next((ln for ln in reversed(lines[:k]) if ln), "")
+        name = next((m["name"] for ln in lines[k + 1:k + 4] if (m := _DEF.match(ln))), "?")
+        return f"{name} ({where['file']}, line {where['line']}): {reason}"
+    return f"this system ({_reason(_ANSI.sub('', message))})"
 
 
 def _reason(message: str) -> str:

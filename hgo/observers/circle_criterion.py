@@ -59,7 +59,43 @@ class CircleCriterionObserver(Observer):
 def circle_criterion_observer(name: str, plant: CircleFormPlant, L: Sequence[float],
                               N: float, xhat0: Sequence[float] | None = None,
                               e0: Sequence[float] | None = None) -> CircleCriterionObserver:
-    """Observer (3) for ``plant``; x^(0) = ``xhat0``, or x(0) - ``e0`` (e = x - x^)."""
+    r"""The circle-criterion observer, Moreno (3), for a Lur'e plant of form (2).
+
+    Plant (2): $\dot x = A x + G \psi(H x) + B u$, $y = C x$ (scalar $y$, $u$,
+    $\sigma = H x$; $\psi$ monotone). Observer:
+
+    $$\dot{\hat x} = A \hat x + L (y - C \hat x)
+      + G\, \psi\big(H \hat x + N (y - C \hat x)\big) + B u .$$
+
+    The error $e = x - \hat x$ obeys Moreno (5): $\dot e = A_L e + G \varphi(z, \sigma)$,
+    $z = H_N e$, $A_L = A - L C$, $H_N = H - N C$, with
+    $\varphi(z, \sigma) = \psi(\sigma) - \psi(\sigma - z)$ in the sector $[K_1, \infty)$.
+
+    Args:
+        name: the observer's name.
+        plant: the form-(2) plant (:func:`hgo.plants.circle_form.circle_form_plant`); in a
+            config it is given the built plant (the factory's parameter named ``plant``).
+        L: the output-injection gain, $n$ finite numbers.
+        N: the gain inside the nonlinearity, a finite scalar (Moreno's example: $N = k$).
+        xhat0: $\hat x(0)$ ($n$ numbers), or
+        e0: the initial error $e(0) = x(0) - \hat x(0)$; give exactly one of the two.
+
+    Returns:
+        The observer: state $z = \hat x$, the plant's parameters (the model) and the gains
+            ``L``, ``N`` by name; ``spectral_radius`` that of $A_L$ only (integrate with an
+            adaptive method: $\psi$ adds a state-dependent stiffness).
+
+    Example:
+        ```python
+        from hgo.observers.circle_criterion import circle_criterion_observer
+        from hgo.plants.circle_form import moreno_example_plant
+
+        plant = moreno_example_plant(a=1.0, x0=[1.0, 0.5])
+        obs = circle_criterion_observer("circle", plant, L=[2.0, 0.0], N=1.0, e0=[1.0, 0.5])
+        A_L, G, H_N = obs.error_matrices()
+        print(A_L.tolist(), obs.z0.tolist())  # [[-3.0, 1.0], [0.0, -1.0]] [0.0, 0.0]
+        ```
+    """
     if not isinstance(plant, CircleFormPlant):
         raise ValueError(f"observer.{name}.plant must be a form-(2) plant "
                          f"(hgo.plants.circle_form), got {type(plant).__name__}")

@@ -59,7 +59,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from hgo.core.components import Observer, Params, user_function
+from hgo.core.components import Observer, Params, model_values, user_function
 from hgo.engine.jit import kernel_helper
 from hgo.plants.contois import (
     check_hbar,
@@ -245,7 +245,8 @@ def homogeneous_dynamic_hgo(name: str, rate_bound: str = "omega2", p: float = 0.
         constants.update(model=user_function(f"{key}.model", model),
                          to_state=identity_state if to_state is None
                          else user_function(f"{key}.to_state", to_state))
-        values.update(model_params or {})
+        own = {k: "a parameter of the observer (7)-(8)" for k in (*constants, *values)}
+        values.update(model_values(key, model_params, own))
         _check(xhat0 is not None and len(xhat0) == 2, f"{key}.xhat0 must be 2 numbers (the "
                f"initial x^ of a user's model), got {xhat0}")
         x_hat0 = np.asarray(xhat0, float)

@@ -52,7 +52,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from hgo.core.components import Observer, Params, user_function
+from hgo.core.components import Observer, Params, model_values, user_function
 
 
 def zero_phi0(x, u, p):  # noqa: ARG001 - the signature of phi0
@@ -171,9 +171,18 @@ def _gain(eps: float | None, ell: float | None, key: str) -> float:
     return float(value)
 
 
-def _common(key: str, n: int, phi0, saturation, model_params,
-            xhat0) -> tuple[dict, dict, np.ndarray]:
-    """Constants (n, phi0, saturate), run-time values (sat_level, model_params), x^(0)."""
+#: the parameters both observers own (name -> what it is); a model's may not take them
+OWN = {"n": "the order", "phi0": "the model function", "saturate": "saturation on or off",
+       "sat_level": "the saturation levels M"}
+OWN_STANDARD = {**OWN, "eps": "the gain parameter eps = 1/ell",
+                "alpha": "the Hurwitz coefficients alpha_1..alpha_n, from roots"}
+OWN_LOWPOWER = {**OWN, "ell": "the gain ell = 1/eps", "K": "the block gains (k_i1, k_i2)"}
+
+
+def _common(key: str, n: int, phi0, saturation, model_params, xhat0,
+            own: dict[str, str]) -> tuple[dict, dict, np.ndarray]:
+    """Constants (n, phi0, saturate), run-time values (sat_level, model_params), x^(0);
+    the model's names checked against the observer's ``own``."""
     if not (isinstance(n, int) and n >= 2):
         raise ValueError(f"{key}.n must be an integer >= 2, got {n!r}")
     level = np.full(n, np.inf) if saturation is None else np.broadcast_to(
@@ -185,7 +194,7 @@ def _common(key: str, n: int, phi0, saturation, model_params,
     if x0.shape != (n,) or not np.all(np.isfinite(x0)):
         raise ValueError(f"{key}.xhat0 must have n = {n} finite entries, got {xhat0}")
     constants = {"n": n, "phi0": _phi0(phi0, key), "saturate": saturation is not None}
-    return constants, {"sat_level": level, **dict(model_params or {})}, x0
+    return constants, {"sat_level": level, **model_values(key, model_params, own)}, x0
 
 
 def _work_names(constants: dict) -> list[str]:
@@ -199,12 +208,67 @@ def standard_hgo(name: str, n: int, eps: float | None = None, ell: float | None 
                  saturation: float | Sequence[float] | None = None,
                  model_params: dict | None = None,
                  xhat0: Sequence[float] | None = None) -> Observer:
-    """The standard high-gain observer (module doc) of order n, gain 1/eps (or ell).
+    r"""The standard high-gain observer (Khalil's form) of order $n$, gain $1/\varepsilon$.
 
-    ``model_params``: named run-time values phi0 may read (``p.mu``)."""
+    For a plant in observability normal form $\dot x_i = x_{i+1}$ ($i < n$),
+    $\dot x_n = \varphi_0(x, u)$, $y = x_1$ + noise:
+
+    $$\dot{\hat x}_i = \hat x_{i+1} + \frac{\alpha_i}{\varepsilon^i}\,(y - \hat x_1),
+    \quad i = 1, \dots, n-1, \qquad
+    \dot{\hat x}_n = \varphi_0(\hat x, u) + \frac{\alpha_n}{\varepsilon^n}\,(y - \hat x_1),$$
+
+    $\alpha$ the coefficients of the Hurwitz polynomial
+    $s^n + \alpha_1 s^{n-1} + \dots + \alpha_n = \prod_i (s - r_i)$.
+    After an initial error in $x_1$ the estimate $\hat x_n$ peaks like
+    $\varepsilon^{-(n-1)}$. With measurement noise of size $\mu$ and a model error in
+    $\varphi_0$, the error of $\hat x_i$ is of order
+    $\varepsilon^{n-i+1} + \mu / \varepsilon^{i-1}$: the trade-off in $\varepsilon$
+    appears only with a model error (with $\varphi_0$ exact the noise term alone remains,
+    smallest at the largest $\varepsilon$).
+
+    Args:
+        name: the observer's name: its key under ``observer:`` and its signals'
+            ``/observer/<name>/...`` in the recording.
+        n: the order, an integer $\ge 2$; states ``xhat1`` ... ``xhat<n>``.
+        eps: $\varepsilon > 0$ (in the plant's time unit, s). Give exactly one of ``eps`` and
+            ``ell``.
+        ell: $\ell = 1/\varepsilon$ (1/s).
+        phi0: the model $\varphi_0$: ``phi0(x, u, p) -> float`` with ``x`` the estimate
+            (n), ``u`` the plant's inputs, ``p`` this observer's parameters (``p.mu`` of
+            ``model_params``); in a config ``{_target_: module.phi0, _partial_: true}``. It
+            is compiled with the kernel: it and every function it calls must compile in
+            numba's nopython mode (decorate a helper with ``numba.njit``). Default ``0.0``:
+            a chain of integrators.
+        roots: the $n$ roots $r_i$ of the Hurwitz polynomial, real parts $< 0$. Default:
+            all at $-1$, $\alpha_i = \binom{n}{i}$ (for $n = 2$: $\alpha = (2, 1)$).
+        saturation: a level $M > 0$ (one, or one per state): $\varphi_0$ is fed the estimate
+            clipped to $[-M, M]$ (peaking protection; the state is not clipped). Default
+            ``None``: no saturation.
+        model_params: named run-time values ``phi0`` reads (``{mu: 1.0}`` -> ``p.mu``). A
+            name may not be one of the observer's own: ``n``, ``eps``, ``alpha``, ``phi0``,
+            ``saturate``, ``sat_level`` (one-line error naming both).
+        xhat0: $\hat x(0)$, $n$ finite numbers. Default zeros.
+
+    Returns:
+        The observer: state $z = \hat x$ ($n$), estimate of every plant state,
+            ``spectral_radius`` $= \max_i |r_i| / \varepsilon$.
+
+    Example:
+        ```python
+        from hgo.observers.normal_form import standard_hgo
+
+        obs = standard_hgo("std", n=2, eps=0.01, xhat0=[0.5, 0.0])
+        print(obs.p.alpha, obs.p.eps, obs.spectral_radius)  # (2.0, 1.0) 0.01 100.0
+        ```
+
+        In a config (``conf/observer/vdp_standard.yaml``): ``standard: {_target_:
+        hgo.observers.normal_form.standard_hgo, n: 2, eps: 0.05, phi0: {_target_:
+        hgo.plants.van_der_pol.phi0, _partial_: true}, model_params: {mu: ${plant.mu}}}``.
+    """
     key = f"observer.{name}"
     gain = _gain(eps, ell, key)
-    constants, values, x0 = _common(key, n, phi0, saturation, model_params, xhat0)
+    constants, values, x0 = _common(key, n, phi0, saturation, model_params, xhat0,
+                                    OWN_STANDARD)
     alpha = hurwitz_alpha(n, roots)
     constants["alpha"] = tuple(alpha.tolist())
     radius = gain * float(np.max(np.abs(np.roots(np.concatenate([[1.0], alpha])))))
@@ -221,12 +285,64 @@ def lowpower_hgo(name: str, n: int, ell: float | None = None, eps: float | None 
                  saturation: float | Sequence[float] | None = None,
                  model_params: dict | None = None,
                  xhat0: Sequence[float] | None = None) -> Observer:
-    """Astolfi & Marconi's low-power high-gain observer (module doc) of order n, gain ell
-    (or 1/eps), gains K ((n-1) x 2; default :func:`lowpower_default_gains`). x^(0) =
-    ``xhat0`` (block i starts at (x^i(0), x^(i+1)(0)))."""
+    r"""Astolfi & Marconi's low-power high-gain observer of order $n$, gain $\ell$.
+
+    Astolfi & Marconi, *A high-gain nonlinear observer with limited gain power*, IEEE TAC
+    60(11), 2015: $n - 1$ blocks $\xi_i \in \mathbb{R}^2$,
+
+    $$\dot\xi_i = A_2 \xi_i + N_2 \xi_{i+1} + D(\ell) K_i e_i, \quad i = 1..n-2, \qquad
+    \dot\xi_{n-1} = A_2 \xi_{n-1} + B_2 \varphi_0(\hat x, u) + D(\ell) K_{n-1} e_{n-1},$$
+
+    $$A_2 = \begin{pmatrix} 0 & 1 \\ 0 & 0 \end{pmatrix},\;
+    N_2 = \begin{pmatrix} 0 & 0 \\ 0 & 1 \end{pmatrix},\;
+    B_2 = \begin{pmatrix} 0 \\ 1 \end{pmatrix},\;
+    D(\ell) = \operatorname{diag}(\ell, \ell^2),\;
+    e_1 = y - \xi_{1,1},\; e_i = \xi_{i-1,2} - \xi_{i,1},$$
+
+    estimate $\hat x = (\xi_{1,1}, \xi_{1,2}, \xi_{2,2}, \dots, \xi_{n-1,2})$. No gain
+    exceeds $\ell^2$ whatever $n$, and $\hat x_n$ peaks like $\ell$ (the standard
+    observer's like $\ell^{n-1}$). For $n = 2$ there is one block, and with the default
+    gains $K_1 = (2, 1)$ it *is* the standard observer with $\alpha = (2, 1)$,
+    $\varepsilon = 1/\ell$.
+
+    Args:
+        name: the observer's name (key under ``observer:``, ``/observer/<name>/...``).
+        n: the order, an integer $\ge 2$.
+        ell: $\ell > 0$ (1/s). Give exactly one of ``ell`` and ``eps``.
+        eps: $\varepsilon = 1/\ell$ (s).
+        phi0: the model $\varphi_0(x, u, p)$, as for :func:`standard_hgo` (numba-compilable;
+            default ``0.0``).
+        K: the gains $K_i = (k_{i1}, k_{i2})$, an $(n-1) \times 2$ array. Default
+            :func:`lowpower_default_gains`: block $i$'s polynomial $(s + c_i)^2$,
+            $c_i = 2^{n-1-i}$ (Hurwitz error system for $n = 2..8$). The factory refuses
+            gains whose linear error system (:func:`lowpower_error_matrix`) is not Hurwitz.
+        saturation: level(s) $M$ of the estimate fed to $\varphi_0$, as for
+            :func:`standard_hgo`. Default ``None``.
+        model_params: named run-time values ``phi0`` reads. Reserved (the observer's own):
+            ``n``, ``ell``, ``K``, ``phi0``, ``saturate``, ``sat_level``.
+        xhat0: $\hat x(0)$ ($n$ numbers; block $i$ starts at
+            $(\hat x_i(0), \hat x_{i+1}(0))$). Default zeros.
+
+    Returns:
+        The observer: state $z = (\xi_{1,1}, \xi_{1,2}, \xi_{2,2}, \dots, \xi_{n-1,2},
+            \xi_{2,1}, \dots, \xi_{n-1,1})$ ($2n - 2$; its first $n$ entries are $\hat x$),
+            ``spectral_radius`` that of the linear error system.
+
+    Example:
+        ```python
+        import numpy as np
+        from hgo.observers.normal_form import lowpower_hgo, standard_hgo
+
+        low = lowpower_hgo("low", n=2, ell=100.0)
+        std = standard_hgo("std", n=2, eps=0.01)
+        print(low.p.K.tolist(), low.state_names)  # [[2.0, 1.0]] ['xi1_1', 'xi1_2']
+        assert np.isclose(low.spectral_radius, std.spectral_radius)  # n = 2: the same observer
+        ```
+    """
     key = f"observer.{name}"
     gain = _gain(eps, ell, key)
-    constants, values, x0 = _common(key, n, phi0, saturation, model_params, xhat0)
+    constants, values, x0 = _common(key, n, phi0, saturation, model_params, xhat0,
+                                    OWN_LOWPOWER)
     K = lowpower_default_gains(n) if K is None else np.asarray(K, float)
     if K.shape != (n - 1, 2) or not np.all(np.isfinite(K)):
         raise ValueError(f"{key}.K must be n - 1 = {n - 1} pairs (k_i1, k_i2), got "

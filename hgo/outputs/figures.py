@@ -179,6 +179,16 @@ def save_figure(fig, path: str | Path) -> None:
         plt.close(fig)
 
 
+def save_png_and_pdf(fig, base: str | Path) -> list[Path]:
+    """:func:`save_figure` to ``<base>.png`` and ``<base>.pdf`` (``base`` without suffix);
+    the two paths."""
+    base = Path(base)
+    png = base.with_name(f"{base.name}.png")
+    with also_saved_as("pdf"):
+        save_figure(fig, png)
+    return [png, png.with_suffix(".pdf")]
+
+
 def legend_below(fig, axes: Sequence | None = None, ncol: int | None = None) -> None:
     """One legend for the whole figure, centred below it (no white gap beside the axes):
     the distinct labels of ``axes`` (default: all), in drawing order."""

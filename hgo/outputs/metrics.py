@@ -1,13 +1,31 @@
-"""Mean-error metrics of a run against the papers' bounds, as a tidy table.
+r"""Mean-error metrics of a run against the papers' bounds, as a tidy table.
 
-Empirical quantities are trailing-window time averages, the finite-horizon estimates of
-the limsups of Sanfelice & Praly (11)-(12):
+Empirical quantities are trailing-window time averages over the last $T$ seconds
+(``metrics.window``), the finite-horizon estimates of the limsups of Sanfelice & Praly
+(11)-(12):
 
-    mean_sq_error_<x_i>  = (1/T) int_{t_end-T}^{t_end} |x^_i - x_i|^2 dt
-    mean_sq_output_error = (1/T) int_{t_end-T}^{t_end} (y^ - y)^2 dt   (y measured, noisy)
+$$\texttt{mean\_sq\_error\_}x_i = \frac{1}{T}\int_{t_{end}-T}^{t_{end}}
+|\hat x_i - x_i|^2\,dt, \qquad
+\texttt{mean\_sq\_output\_error} = \frac{1}{T}\int_{t_{end}-T}^{t_{end}}
+(\hat y - y)^2\,dt$$
 
-computed by the kernel with the trapezoid rule over every integration step and output
-instant inside the window (so they do not depend on the output grid).
+($y$ the measured, noisy output; $\hat y = \hat x$ of the plant's ``output_state``), in
+the squared units of the state. The kernel computes them with the trapezoid rule over
+every integration step and output instant inside the window, so they do not depend on the
+output grid. Post-processors (``postprocess``) add their own rows.
+
+Each row of :func:`metrics_table`: ``observer``, ``postprocess``, ``quantity``,
+``empirical``, ``bound`` (NaN: no bound from the papers), ``ratio`` = empirical / bound,
+``holds``, ``verdict`` (:func:`verdict`), ``window`` (s), ``status``, ``t_stop``,
+``message``; some post-processors add a ``note``. The same table is ``metrics.csv`` of a
+run directory and ``hgo.run(...).metrics``.
+
+Example:
+    ```python
+    from hgo.outputs.metrics import verdict
+
+    print(verdict(0.5, 1.0), verdict(2.0, 1.0), verdict(1e-9, 1e3))  # ✓ ✗ vacuous
+    ```
 """
 
 from __future__ import annotations

@@ -63,7 +63,9 @@ __all__ = [
     "materialized",
     "read_arrays",
     "read_recording",
+    "read_static",
     "time_series_blueprint",
+    "time_series_views",
     "write_recording",
 ]
 
@@ -104,11 +106,18 @@ class Series:
     values : numpy.ndarray or Difference
         Shape ``(N, len(names))``, float64, one row per time sample; a
         :class:`Difference` computes its rows when they are read.
+    color, width : optional
+        One colour (RGB) for every column and a line width; by default column ``k`` gets
+        ``PALETTE[k % 10]``. (The runner gives a plant's states one colour and each
+        observer its own, so x and x^ differ in the viewer.)
     """
 
     entity: str
     names: list[str]
     values: np.ndarray | Difference
+    #: one RGB colour for every column, and a line width (None: the palette by column)
+    color: tuple[int, int, int] | None = None
+    width: float | None = None
 
 
 @dataclass(frozen=True)
@@ -284,8 +293,10 @@ def _send_series(
     stream is flushed whenever they reach :data:`FLUSH_BYTES`)."""
     import rerun as rr
 
-    colors = [PALETTE[k % len(PALETTE)] for k in range(len(s.names))]
-    rec.log(s.entity, rr.SeriesLines(names=list(s.names), colors=colors), static=True)
+    colors = [s.color or PALETTE[k % len(PALETTE)] for k in range(len(s.names))]
+    widths = None if s.width is None else [s.width] * len(s.names)
+    rec.log(s.entity, rr.SeriesLines(names=list(s.names), colors=colors, widths=widths),
+            static=True)
     offsets = np.arange(CHUNK_ROWS + 1, dtype=np.int32) * np.int32(values.shape[1])
     for a, b, time_column in blocks:
         block = np.asarray(values[a:b], dtype=np.float64)
@@ -310,6 +321,7 @@ def write_recording(
     recording_id: str,
     blueprint: rrb.Blueprint | None = None,
     text: Mapping[str, str] | None = None,
+    recording_name: str | None = None,
 ) -> Path:
     """Write one run to an ``.rrd`` file, columnar (``send_columns`` per series).
 
@@ -332,6 +344,9 @@ def write_recording(
     text : mapping of str to str, optional
         Entity path -> text, logged as static ``rr.TextDocument`` entries,
         e.g. ``{"/run/status": "failed at t=3.2 s: non-finite state"}``.
+    recording_name : str, optional
+        The name the viewer lists the recording by (a sweep's job: its overrides,
+        ``eps=0.01 noise.std=0.001``).
 
     Returns
     -------
@@ -356,7 +371,7 @@ def write_recording(
     checked = _checked_series(series, len(time))
     partial = partial_path(path)
     stream = functools.partial(_stream_to_file, partial, time, checked, application_id,
-                               recording_id, blueprint, text)
+                               recording_id, blueprint, text, recording_name)
     if not bounded_write(partial, stream):
         warnings.warn(
             f"Rerun is disabled (RERUN=off?): no recording written to {path}",
@@ -370,7 +385,7 @@ def write_recording(
 
 def _stream_to_file(partial: Path, time: np.ndarray, checked: list[tuple[Series, np.ndarray]],
                     application_id: str, recording_id: str, blueprint: rrb.Blueprint | None,
-                    text: Mapping[str, str] | None) -> bool:
+                    text: Mapping[str, str] | None, recording_name: str | None = None) -> bool:
     """Rerun's part of :func:`write_recording`: the stream saved to ``partial`` and closed;
     False when Rerun is disabled (nothing written)."""
     import rerun as rr
@@ -380,6 +395,8 @@ def _stream_to_file(partial: Path, time: np.ndarray, checked: list[tuple[Series,
             return False
         partial.parent.mkdir(parents=True, exist_ok=True)
         _save(rec, partial, blueprint)
+        if recording_name:
+            rec.send_recording_name(recording_name)
         blocks = _time_blocks(time)
         unflushed = 0
         for s, values in checked:
@@ -662,13 +679,23 @@ def time_series_blueprint(
     """
     import rerun.blueprint as rrb
 
-    views = [
+    return rrb.Blueprint(rrb.Grid(*time_series_views(groups, entities=entities)),
+                         auto_views=False)
+
+
+def time_series_views(
+    groups: Mapping[str, Sequence[str]], *, entities: Sequence[str] | None = None
+) -> list:
+    """The views of :func:`time_series_blueprint`, one per group, for a layout of one's
+    own."""
+    import rerun.blueprint as rrb
+
+    return [
         rrb.TimeSeriesView(
             name=title, origin="/", contents=_view_contents(patterns, entities, title)
         )
         for title, patterns in groups.items()
     ]
-    return rrb.Blueprint(rrb.Grid(*views), auto_views=False)
 
 
 def _column_values(column: object, n: int) -> np.ndarray:
@@ -744,6 +771,19 @@ def read_arrays(path: str | Path, allow_incomplete: bool = False) -> dict[str, n
         only an empty ``"sim_time"``.
     """
     return _store_arrays(_read_store(path, allow_incomplete))
+
+
+def read_static(path: str | Path, entity: str, component: str) -> list | None:
+    """The static value of ``entity``'s ``component`` (``"SeriesLines:colors"``,
+    ``"RecordingInfo:name"`` of ``/__properties``) in a recording, or None."""
+    from rerun.chunk import RrdReader
+
+    for chunk in RrdReader(Path(path)).stream().to_chunks():
+        if str(chunk.entity_path) == entity and chunk.is_static:
+            batch = chunk.to_record_batch()
+            if component in batch.schema.names:
+                return batch.column(component).to_pylist()[-1]
+    return None
 
 
 def read_recording(path: str | Path, allow_incomplete: bool = False) -> pd.DataFrame:

@@ -30,6 +30,8 @@ from pathlib import Path
 
 import pandas as pd
 
+from hgo.outputs.user_code import user_code
+
 ROOT = Path(__file__).resolve().parents[2]
 LIBRARIES = ("numpy", "numba", "rerun-sdk", "hydra-core", "scipy", "pandas")
 
@@ -92,6 +94,8 @@ def write_run_json(out_dir: Path, config: dict, status: str, started: datetime,
         "run_name": config.get("run_name"), "seed": config.get("seed"), "status": status,
         "config": flatten({k: v for k, v in config.items() if k != "hydra"}),
         "metrics": metrics_summary(metrics),
+        # the user's modules behind the config's _target_s (hgo.outputs.user_code)
+        "user_code": user_code(config),
     }
     path = Path(out_dir) / "run.json"
     partial = path.with_name("run.json.partial")  # renamed when complete
@@ -152,7 +156,7 @@ def load(root: str | Path = "outputs", skipped: list[str] | None = None) -> pd.D
                 skipped.append(str(err))
             continue
         row = {"path": str(d), **{k: v for k, v in info.items()
-                                   if k not in ("config", "metrics", "seconds")}}
+                                   if k not in ("config", "metrics", "seconds", "user_code")}}
         row.update({f"seconds.{k}": v for k, v in info.get("seconds", {}).items()})
         row.update({f"config.{k}": v for k, v in info.get("config", {}).items()})
         row.update({f"metric.{k}": v for k, v in info.get("metrics", {}).items()})

@@ -146,12 +146,36 @@ def circle_form_plant(A: Sequence[Sequence[float]], G: Sequence[float], C: Seque
                       x0: Sequence[float], name: str = "circle_form",
                       psi_c: Sequence[float] = (), K1: float | None = None,
                       support: dict | None = None) -> CircleFormPlant:
-    """Plant (2) from its matrices and psi: the coefficients [c_0, c_1, ...] (ascending)
-    of a polynomial, or a function psi(s, c) with its parameters ``psi_c`` and the global
-    sector lower bound ``K1`` of phi(z, s) = psi(s) - psi(s - z) (Moreno (6); -inf when
-    not given: the theory rows then have no sector). ``support``: for a factory that knows
-    its structure, per matrix name the flags (its shape) of the entries that may be
-    nonzero; the kernel leaves the others out. Default: every entry."""
+    r"""A Lur'e plant, Moreno (2), from its matrices and $\psi$:
+
+    $$\dot x = A x + G\, \psi(H x) + B u, \qquad y = C x .$$
+
+    Args:
+        A: $n \times n$. G, C, H, B: $n$ each (scalar $\psi$, $y$, $u$).
+        psi: the coefficients $[c_0, c_1, \dots]$ (ascending) of a polynomial, or a
+            numba-compilable function ``psi(s, c)`` with its parameters ``psi_c``.
+        x0: $x(0)$ ($n$).
+        name: the plant's name (default ``circle_form``).
+        psi_c: the parameters of a function ``psi``.
+        K1: the global sector lower bound of
+            $\varphi(z, s) = \psi(s) - \psi(s - z)$ (Moreno (6)); computed for a
+            polynomial, $-\infty$ when a function's is not given (the theory rows then have
+            no sector).
+        support: for a factory that knows its structure, per matrix name the flags (its
+            shape) of the entries that may be nonzero; the kernel leaves the others out.
+            Default: every entry.
+
+    Example:
+        ```python
+        from hgo.plants.circle_form import circle_form_plant
+
+        plant = circle_form_plant(A=[[-1.0, 1.0], [0.0, -1.0]], G=[1.0, 0.0], C=[1.0, 0.0],
+                                  H=[0.0, 1.0], B=[0.0, 1.0], psi=[0.0, -2.0, 0.0, 1.0],
+                                  x0=[0.0, 0.0])
+        # the global sector lower bound of psi = s^3 - 2 s
+        print(plant.K1)  # -2.0
+        ```
+    """
     A = np.asarray(A, float)
     n = A.shape[0]
     if A.ndim != 2 or A.shape != (n, n) or n < 1 or not np.all(np.isfinite(A)):

@@ -401,28 +401,49 @@ def sweep_exit_code(sweep: Path) -> int:
     return max(codes, default=0)
 
 
+def swept_values(all_overrides: dict[str, list[str]]) -> tuple[list[str], dict[str, dict]]:
+    """The keys whose overrides differ between jobs (in order of appearance), and per job
+    key -> value (all of a single job's overrides)."""
+    parsed = {job: dict(o.split("=", 1) if "=" in o else (o, "") for o in ov)
+              for job, ov in all_overrides.items()}
+    keys: list[str] = []
+    for values in parsed.values():
+        keys += [k for k in values if k not in keys]
+    if len(parsed) > 1:
+        keys = [k for k in keys if len({v.get(k) for v in parsed.values()}) > 1]
+    return keys, {job: {k: v.get(k, "") for k in keys} for job, v in parsed.items()}
+
+
+def _table(header: list[str], rows: list[list[str]]) -> list[str]:
+    """Left-aligned columns as wide as their widest cell (nothing cut)."""
+    widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
+    return ["  " + "  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)).rstrip()
+            for r in [header, *rows]]
+
+
 def sweep_summary(sweep: Path) -> str:
-    """``<n> jobs in <sweep>: <k> ok, <f> failed`` then a row per job (the table fits 100
-    columns), and each failed job's one-line error."""
+    """``<n> jobs in <sweep>: <k> ok, <f> failed`` then a table: a row per job, one column
+    per swept key (its value, never cut), the status and the first metric; and each failed
+    job's one-line error."""
     failures = _failures(sweep)
     jobs = _job_dirs(sweep)
-    overrides = {j.name: _overrides(j) for j in jobs}
-    labels = _varying(overrides) if overrides else {}
-    lines, n_ok = [], 0
+    keys, values = swept_values({j.name: _overrides(j) for j in jobs}) if jobs else ([], {})
+    rows, n_ok, metric_name = [], 0, ""
     for job in jobs:
         status, data = _job_status(job)
         n_ok += _is_ok(status)
         metric = next(iter((data.get("metrics") or {}).items()), None)
-        shown = (f"{metric[0].rsplit('/', 1)[-1][:26]} = {metric[1]:.4g}"
-                 if metric and isinstance(metric[1], int | float) else "")
-        lines.append(f"  {job.name:6s} {labels.get(job.name, '')[:34]:34s} "
-                     f"{status[:14]:14s} {shown}")
+        shown = f"{metric[1]:.4g}" if metric and isinstance(metric[1], int | float) else ""
+        metric_name = metric_name or (metric[0] if shown else "")
+        rows.append([job.name, *(values.get(job.name, {}).get(k, "") for k in keys), status,
+                     shown])
     names = {j.name for j in jobs} | set(failures)
     n_failed = len(names) - n_ok
     errors = [f"  {name}: error: {line}" for name, (_, line) in failures.items()]
     head = f"sweep: {len(names)} jobs in {sweep}: {n_ok} ok" + (
         f", {n_failed} failed" if n_failed else "")
-    return "\n".join([head, *lines, *errors])
+    table = _table(["job", *keys, "status", metric_name], rows) if rows else []
+    return "\n".join([head, *table, *errors])
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -73,6 +73,7 @@ from hgo.running.runner import (
     status_text,
     track,
 )
+from hgo.running.viewer_layout import styled
 
 log = logging.getLogger(__name__)
 CHUNKS = 10  # progress is reported after each tenth of the members
@@ -201,7 +202,7 @@ def _record_member0(cfg, out_dir, systems, solver, noise, size, post, first) -> 
         log.info("recording.mode=off: no recording.rrd")
         return first
     first = first or simulate(systems[0], solver, noise)
-    series = signals(systems[0], first) + post.series
+    series = styled(systems[0], signals(systems[0], first)) + post.series
     write_run_recording(cfg.get("recording"), out_dir / "recording.rrd", first.t, series,
                         recording_id=recording_id(out_dir),
                         blueprint=blueprint(systems[0], series),

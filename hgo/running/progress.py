@@ -8,6 +8,7 @@ integrator on this machine (``compile_seconds.json`` in the kernel cache).
 from __future__ import annotations
 
 import json
+import logging
 import threading
 import time
 from contextlib import contextmanager
@@ -15,6 +16,8 @@ from pathlib import Path
 
 from numba.core.event import Listener, install_listener
 from tqdm import tqdm
+
+log = logging.getLogger(__name__)
 
 
 def bar(total: int | float | None, desc: str, unit: str = "it") -> tqdm:
@@ -34,15 +37,23 @@ def _history(method: str) -> tuple[Path | None, dict]:
 
 
 class _CompileBar(Listener):
-    """While numba compiles (outermost compile event), a bar filling over the expected time."""
+    """While numba compiles (outermost compile event), a bar filling over the expected time;
+    the first compile says what it compiles (a log line)."""
 
-    def __init__(self, method: str) -> None:
-        self.method, self.depth, self.seconds = method, 0, 0.0
+    def __init__(self, method: str, what: str = "") -> None:
+        self.method, self.what, self.depth, self.seconds = method, what, 0, 0.0
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
+        self._said = False
 
     def on_start(self, event) -> None:
         self.depth += 1
+        if self.depth == 1 and not self._said:
+            self._said = True
+            expected = _history(self.method)[1].get(self.method)
+            log.info("compiling %s with %s (once: later runs load it from the kernel cache%s)",
+                     self.what or "a new kernel", self.method,
+                     f"; about {expected:.0f} s last time" if expected else "")
         if self.depth == 1:
             self._t0 = time.perf_counter()
             self._stop.clear()
@@ -66,9 +77,11 @@ class _CompileBar(Listener):
 
 
 @contextmanager
-def compile_progress(method: str):
-    """Show a bar while numba compiles inside the block; remember how long it took."""
-    listener = _CompileBar(method)
+def compile_progress(method: str, what: str = ""):
+    """Show a bar while numba compiles inside the block, and say once what it compiles
+    (``what``: "the kernel of plant vdp with observers standard"); remember how long it
+    took."""
+    listener = _CompileBar(method, what)
     with install_listener("numba:compile", listener):
         yield listener
     if listener.seconds > 1.0:  # a real kernel compile, not a small helper

@@ -40,12 +40,13 @@ from hgo.noise import NoiseModel
 from hgo.outputs.console import compact_table
 from hgo.outputs.decimate import check_recording, recording_mode, write_run_recording
 from hgo.outputs.metrics import metrics_table, status_word
-from hgo.outputs.recording import Difference, Series, atomic_output, time_series_blueprint
+from hgo.outputs.recording import Difference, Series, atomic_output
 from hgo.outputs.runs import write_run_json
 from hgo.postprocess import PostOutput
 from hgo.running.figures import check_figures, draw_figures, figure_settings
 from hgo.running.progress import compile_progress
 from hgo.running.results import Experiment, RunResult
+from hgo.running.viewer_layout import blueprint, recording_name, styled
 
 if TYPE_CHECKING:
     from hgo.running.figure_worker import FigureWorker
@@ -322,19 +323,6 @@ def signals(system: System, traj: Trajectory) -> list[Series]:
     return out
 
 
-def blueprint(system: System, series: list[Series]):
-    """Default layout: states vs estimates, errors, gains and measurement."""
-    entities = [s.entity for s in series]
-    gains = [e for e in entities if e.startswith("/observer/") and not e.endswith("/xhat")]
-    groups = {
-        "states vs estimates": ["/plant/x"] + [e for e in entities if e.endswith("/xhat")],
-        "estimation errors x^ - x": ["/error/**"],
-        "observer gains and internal signals": gains or ["/observer/**"],
-        "measurement": ["/measurement/**"] + (["/input/u"] if "/input/u" in entities else []),
-    }
-    return time_series_blueprint(groups, entities=entities)
-
-
 def job_config_yaml(cfg: DictConfig) -> str:
     """The composed job config (without Hydra's own node), resolved, as YAML."""
     job = {k: v for k, v in cfg.items() if k != "hydra"}
@@ -394,7 +382,9 @@ def simulate_config(cfg: DictConfig) -> MemoryRun:
     """Build, simulate, post-process and tabulate the metrics of a composed config."""
     exp = build(cfg)
     log.info("integrating t = 0 .. %g s (%s)", exp.solver.t_end, exp.solver.method)
-    with run_seconds() as seconds, compile_progress(exp.solver.method):
+    what = (f"the kernel of plant {exp.system.plant.name} with observers "
+            + ", ".join(o.name for o in exp.system.observers))
+    with run_seconds() as seconds, compile_progress(exp.solver.method, what):
         traj = run_experiment(exp)
     t0 = time.perf_counter()
     post = postprocess(cfg, exp, traj) if traj.ok else PostOutput()
@@ -425,7 +415,7 @@ def run(cfg: DictConfig, out_dir: str | Path, figures: FigureWorker | None = Non
     mem = simulate_config(cfg)
     out_dir.mkdir(parents=True, exist_ok=True)
     exp, traj, table = mem.experiment, mem.trajectory, mem.metrics
-    series = signals(exp.system, traj) + mem.post.series
+    series = styled(exp.system, signals(exp.system, traj)) + mem.post.series
     result = RunResult(exp, traj, table, out_dir, series, mem.timings)
     if figures is not None and traj.ok:
         figures.submit(cfg, result)
@@ -435,6 +425,7 @@ def run(cfg: DictConfig, out_dir: str | Path, figures: FigureWorker | None = Non
     layout = None if recording_mode(recording) == "off" else blueprint(exp.system, series)
     write_run_recording(recording, out_dir / "recording.rrd", traj.t, series,
                         recording_id=recording_id(out_dir), blueprint=layout,
+                        recording_name=recording_name(cfg, out_dir.name),
                         text={"/run/status": status_text(traj),
                               "/run/config": job_config_yaml(cfg)})
     result.timings["write"] = t_write = time.perf_counter() - t1
