@@ -237,8 +237,8 @@ class DHLMMetrics:
         beta_meas = dense.maximum(run, lambda s: np.linalg.norm(
             self._eta(sig.zerr(s), blk, eps), axis=1), T_eps, T)[0] / eps
         rows += [("T_eps", T_eps, None), ("beta_measured", float(beta_meas), None)]
-        h_max = [dense.maximum(run, lambda s, j=j: self._h_abs(system, s, blk)[:, j], *W)[0]
-                 for j in range(nn)]
+        h_abs = dense.LastValue(lambda s: self._h_abs(system, s, blk))
+        h_max = [dense.maximum(run, lambda s, j=j: h_abs(s)[:, j], *W)[0] for j in range(nn)]
         lags = self._lags(None, blk, eps, np.array(h_max))
         for j in range(nn):
             peak = dense.maximum(run, lambda s, j=j: np.abs(sig.zerr(s)[:, j]), *W)[0]
@@ -381,7 +381,8 @@ class DHLMMetrics:
             psi_rows(obs.p, sig.x(s), s.u).reshape(len(s.t), -1), axis=1), 0.0, T)[0]
         u_max = dense.maximum(run, lambda s: np.max(np.abs(s.u), axis=1), 0.0, T)[0]
         rows += [("u_max", u_max, None), ("psi_max_bound", float(np.hypot(1.0, u_max)), None)]
-        h_max = max(dense.maximum(run, lambda s, j=j: self._h_abs(system, s, blk)[:, j],
+        h_abs = dense.LastValue(lambda s: self._h_abs(system, s, blk))
+        h_max = max(dense.maximum(run, lambda s, j=j: h_abs(s)[:, j],
                                   0.0, T)[0] for j in range(int(blk["N"])))
         beta_an = max(theory.beta_analytic(g, h_max) for g in self._block_gains(blk))
         args = (chk.P, chk.Q, L, M, B, theta, blk["delta"], blk["sigma"], blk["eps"])
