@@ -7,7 +7,9 @@ Stored from :data:`SCHEMAS` by :func:`hgo.core.config.register_configs`:
 * ``schema/plant/circle_form``: any plant of form (2) with polynomial psi
   (:func:`hgo.plants.circle_form.circle_form_plant`);
 * ``schema/observer/circle_criterion``: the observer (3) built from the plant's matrices
-  (``plant: ${plant}``) (:func:`hgo.observers.circle_criterion.circle_criterion_observer`);
+  (the runner hands its factory the built plant,
+  :func:`hgo.running.runner.plant_argument`)
+  (:func:`hgo.observers.circle_criterion.circle_criterion_observer`);
 * ``schema/controller/profile_input``: inputs u = r' + a r of a profile r
   (:func:`hgo.controllers.profile_input.profile_input`);
 * ``schema/postprocess/moreno_certificate``: (9)-(14), Theorems 2-3 along a run
@@ -19,7 +21,6 @@ Stored from :data:`SCHEMAS` by :func:`hgo.core.config.register_configs`:
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
 
 
 @dataclass
@@ -50,7 +51,6 @@ class CircleCriterionConf:
     """Moreno (3) with gains L = [l1, l2], N = k; x^(0) = x(0) - e0 (or xhat0)."""
 
     _target_: str = "hgo.observers.circle_criterion.circle_criterion_observer"
-    plant: Any = "${plant}"
     L: list[float] = field(default_factory=lambda: [200.0, 120.0])
     N: float = 2.0
     e0: list[float] | None = field(default_factory=lambda: [70.0, -50.0])
