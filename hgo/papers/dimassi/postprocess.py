@@ -55,6 +55,7 @@ from hgo.outputs.recording import Series
 from hgo.plants.robot_arm import dimassi_psi
 from hgo.postprocess import PostOutput, dense
 from hgo.postprocess.dense import steps_of
+from hgo.postprocess.vector_field import vector_field
 
 
 def settle_time(run, signal, band: float, t_window: float, t_end: float) -> float:
@@ -317,12 +318,7 @@ class DHLMMetrics:
     def _h_abs(system: System, traj: Trajectory, blk: dict) -> np.ndarray:
         """|h_i(t)| of (12) per z entry (the block's h; the derivative of z_iqi minus
         b_i2 u), from the plant's own vector field on the output grid."""
-        plant = system.plant
-        x = traj.z[:, :plant.nx]
-        dx = np.empty_like(x)
-        p = plant.p.record() if plant.params else plant.p  # every name read once
-        for j in range(len(traj.t)):
-            plant.f(traj.t[j], x[j], traj.u[j], p, dx[j])
+        dx = vector_field(system.plant, traj.t, traj.z[:, :system.plant.nx], traj.u)
         H, Bz2 = blk["H"], blk["Bz2"]
         first = blk["first"].astype(int)
         hs = np.zeros((len(traj.t), H.shape[0]))
