@@ -182,6 +182,41 @@ def test_ensemble_members_with_own_noise_and_early_exits() -> None:
                                    err_msg=f"member {i}")
 
 
+def test_ensemble_is_bit_identical_across_thread_counts() -> None:
+    """The ensemble's members (prange) run the same functions on one thread and on every
+    thread numba has: acc, status, t_stop and the recorded trajectories are equal bit for
+    bit (issue 41: the members must keep calling thread-safe, shared-nothing code)."""
+    import numba
+
+    threads = numba.config.NUMBA_NUM_THREADS
+    if threads < 2:
+        pytest.skip("numba has one thread here")
+    rng = np.random.default_rng(7)
+    systems = [sp_system(p2=float(p2), e0=tuple(e0))
+               for p2, e0 in zip(rng.uniform(0.5, 3, 17), rng.uniform(-3, 3, (17, 2)),
+                                 strict=True)]
+    params, z0, d0 = stack_members(systems)
+    noises = [Noise(rng.uniform(-0.05, 0.05, (int(4 / 0.013) + 2, 1)), 0.013)
+              for _ in systems]
+    solver = SolverSettings(t_end=4.0, dt_out=0.01, method="dop853", h_max=10.0,
+                            state_bound=6.0)
+    before = numba.get_num_threads()
+    runs = []
+    try:
+        for n in (1, threads):
+            numba.set_num_threads(n)
+            runs.append(simulate_ensemble(systems[0], solver, noises, params, z0, d0,
+                                          record=True))
+    finally:
+        numba.set_num_threads(before)
+    one, many = runs
+    for key in ("acc", "status", "t_stop"):
+        np.testing.assert_array_equal(one[key], many[key], err_msg=key)
+    for a, b in zip(one["trajectories"], many["trajectories"], strict=True):
+        for field in ("t", "z", "y", "u", "xh"):
+            np.testing.assert_array_equal(getattr(a, field), getattr(b, field))
+
+
 def test_stack_members_rejects_different_layouts() -> None:
     other = System(sp_linear_plant(), [triangular_hgo("o", K=[2], xhat0=[0.0])])
     with pytest.raises(ValueError, match="member 1"):
