@@ -93,6 +93,15 @@ def _cached(run, key: tuple, make: Callable[[], tuple]) -> tuple:
     return cache[key]
 
 
+def release(run: DenseRun, a: float, b: float) -> None:
+    """Drop the signals kept for the window [a, b] (its scan, its half-step Gauss nodes): a
+    post-processor done with a window frees them (a 2000 s run's are ~0.3-0.4 GB each).
+    Asked for again, they are sampled again, the same."""
+    cache = run.__dict__.get("_dense_samples", {})
+    for kind in ("scan", "halves", "gauss_index"):
+        cache.pop((kind, a, b), None)
+
+
 def _edges(run: DenseRun, a: float, b: float) -> np.ndarray:
     """``run.boundaries(a, b)``, once per run and window (every metric of a window asks)."""
     return _cached(run, ("edges", a, b), lambda: (run.boundaries(a, b),))[0]

@@ -209,6 +209,7 @@ class DHLMMetrics:
         rows = self._hgo_rows(system, traj, k, zn, blk["ideal"] > 0.5, blk, blk["eps"])
         rows += self._state_rows(sig, traj, n)
         rows += self._theta_rows(sig, traj, theta, nq)
+        dense.release(steps_of(traj), self.window_start, traj.t_stop)  # W: done with it
         if self.theory:
             beta_meas = next(v for q, v, _ in rows if q == "beta_measured")
             rows += self._theory(system, traj, obs, sig, theta, beta_meas, out)
@@ -237,6 +238,7 @@ class DHLMMetrics:
         T_eps = self.T_eps_factor * eps
         beta_meas = dense.maximum(run, lambda s: np.linalg.norm(
             self._eta(sig.zerr(s), blk, eps), axis=1), T_eps, T)[0] / eps
+        dense.release(run, T_eps, T)  # (sampled again for the last row of _theory)
         rows += [("T_eps", T_eps, None), ("beta_measured", float(beta_meas), None)]
         h_abs = dense.LastValue(lambda s: self._h_abs(system, s, blk))
         h_max = [dense.maximum(run, lambda s, j=j: h_abs(s)[:, j], *W)[0] for j in range(nn)]
