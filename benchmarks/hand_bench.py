@@ -22,16 +22,24 @@ process (all its threads), medians of interleaved calls (``REPS``).
   there depend on round-off, so its x^2 differs by up to ~1e-5 (the same arithmetic in
   another order; before a624e71 hgo's own kernel differed as much between the process that
   compiled it and one loading it from the cache); every other state to ~1e-8;
-* DHLM: ``experiment=dhlm_example``, DOP853 rtol 1e-10, against ``hand_papers.dhlm_kernel``;
+* DHLM: ``experiment=dhlm_example``, DOP853 rtol 1e-10, against
+  ``hand_unrolled.dhlm_unrolled`` (issue 41: DOP853 written out stage by stage with scalar
+  locals and the right-hand side inlined, hgo's fast-math flags; 1.55x faster than
+  ``hand_papers.dhlm_kernel``, the loop-over-arrays kernel that was the yardstick before),
+  recording z, d, y, m, u, x^ and t as hgo's call does;
 * Moreno: ``experiment=moreno_pe`` (x2 = 2 sin t, a = 0.5, l2 = 120), DOP853 rtol 1e-10,
-  against ``hand_papers.moreno_kernel``.
+  against ``hand_papers.moreno_kernel_signals`` (recording t, y, m, u, x^ besides the state,
+  as hgo's call does; issue 41: before, the state-only ``moreno_kernel``).
 
 Then the build time per ensemble member of a 10,000-member grid (``sp_ensemble`` with a
 100 x 100 grid over p2 and x^1(0): ``hgo.ensemble_runner.prepare_ensemble``, i.e. planning,
 building every member's system, stacking the parameters and sampling the noise; no
 integration), and the compile time of a new kernel (problem B, DOP853 rtol 1e-7, in fresh
 processes: empty caches, and a new kernel with numba's cache of the component helpers
-kept). The last line: ``hgo_over_hand: A=<x> B=<x> APA=<x> DHLM=<x> Moreno=<x>``.
+kept), and a new composition's compile of ``sp_fig1`` and ``dhlm_example``
+(``compile_bench.py``: CPU of a fresh run with an empty kernel cache minus the same run
+cached; issue 41's target <= 0.6 s). The last line:
+``hgo_over_hand: A=<x> B=<x> APA=<x> DHLM=<x> Moreno=<x>``.
 
 The hand kernels compute what hgo's call computes besides the recorded trajectory: also
 the window metrics hgo's run reports, as hgo computes them, checked against hgo's (the
@@ -41,8 +49,9 @@ extension, A's by the trapezoid on its RK4 step ends (B's and A's since the afte
 2026-11-28: before, B's hand kernel integrated a trapezoid on the output grid, a metric hgo
 no longer computes, and A's none). The column "without its window metrics" times the same
 hand kernels with no window (the earlier yardstick). The APA kernels compute no window
-metrics. The hand kernels record the state only; hgo also records y, u and x^ at every
-output instant (``--signals``: Moreno's hand kernel recording them too, against hgo).
+metrics. DHLM's and Moreno's hand kernels record what hgo's call records (the state and
+t, y, m, u, x^; DHLM's also d); A's, B's and APA's the state only, while hgo also records
+y, u and x^ (``--signals``: Moreno's state-only kernel against the one recording them).
 """
 
 from __future__ import annotations
@@ -57,6 +66,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import baselines as bl  # noqa: E402
+import compile_bench  # noqa: E402
 import problems as pb  # noqa: E402
 from hand_papers import (  # noqa: E402
     APA_OBSERVERS,
@@ -67,6 +77,7 @@ from hand_papers import (  # noqa: E402
     moreno_kernel,
     moreno_kernel_signals,
 )
+from hand_unrolled import N_REC, dhlm_unrolled  # noqa: E402
 from timing import interleaved_median_cpu  # noqa: E402
 
 REPS = 21
@@ -152,6 +163,54 @@ def case_paper(overrides: list[str], kernel, z0: np.ndarray) -> tuple:
     run = hgo()
     diff = max(_rel_diff(rec, run.z[:, :z0.size]), _rel_diff(acc[None], run.acc[None]))
     return hgo, hand, diff, lambda: hand(0.0)
+
+
+def case_signals(overrides: list[str], kernel, z0: np.ndarray, width: int, ours,
+                 compared: list[int] | None = None) -> tuple:
+    """(hgo call, hand call, difference, hand call without its window metrics) of a paper
+    run whose hand kernel records what hgo's call records: ``width`` columns a row
+    (``compared`` of them: all if None) against ``ours(trajectory)``, and hgo's window
+    metrics. ``kernel(z, t_end, dt_out, h_max, rtol, atol, rec, window, acc)``."""
+    from hgo.core.config import compose
+    from hgo.running.runner import build, run_experiment
+
+    exp = build(compose(overrides))
+    s = exp.solver
+    rec = np.zeros((int(round(s.t_end / s.dt_out)) + 1, width))
+    acc = np.zeros(exp.system.n_acc())
+
+    def hand(window: float = s.t_window):
+        return kernel(z0.copy(), s.t_end, s.dt_out, s.h_max, s.rtol, s.atol, rec, window, acc)
+
+    def hgo():
+        return run_experiment(exp)
+
+    hand()
+    run = hgo()
+    mine = rec if compared is None else rec[:, compared]
+    diff = max(_rel_diff(mine, ours(run)), _rel_diff(acc[None], run.acc[None]))
+    return hgo, hand, diff, lambda: hand(0.0)
+
+
+def _moreno_signals(z, t_end, dt_out, h_max, rtol, atol, rec, window, acc):
+    return moreno_kernel_signals(z, np.zeros(1), NO_NOISE, np.inf, t_end, dt_out, h_max, rtol,
+                                 atol, rec, window, acc)
+
+
+def case_moreno() -> tuple:
+    """Moreno against its hand kernel recording t, y, m, u, x^ too (``moreno_signals``)."""
+    return case_signals(MORENO, _moreno_signals, MORENO_Z0, 10, lambda r: np.column_stack(
+        [r.z, r.t, r.y, r.m, r.u, r.xh]))
+
+
+def case_dhlm() -> tuple:
+    """DHLM against ``hand_unrolled.dhlm_unrolled`` (recording z, d, y, m, u, x^, t). The
+    difference is over every column but d, which holds step-end times (the first and the
+    last step end with the HGO saturated): they move with the steps' round-off (t_sat_last
+    by 2.7e-4 relative against hgo's, measured; every other column <= 3.1e-8)."""
+    nz = DHLM_Z0.size
+    return case_signals(DHLM, dhlm_unrolled, DHLM_Z0, N_REC, lambda r: np.column_stack(
+        [r.z, r.y, r.m, r.u, r.xh, r.t]), [*range(nz), *range(nz + 2, N_REC)])
 
 
 def case_apa() -> tuple:
@@ -256,9 +315,7 @@ def member_build_ms(n: int = GRID_N) -> tuple[float, int]:
     return t / size * 1e3, size
 
 
-CASES = {"A": case_a, "B": case_b, "APA": case_apa,
-         "DHLM": lambda: case_paper(DHLM, dhlm_kernel, DHLM_Z0),
-         "Moreno": lambda: case_paper(MORENO, moreno_kernel, MORENO_Z0)}
+CASES = {"A": case_a, "B": case_b, "APA": case_apa, "DHLM": case_dhlm, "Moreno": case_moreno}
 
 
 def bench(quick: bool = False, only: list[str] | None = None) -> dict:
@@ -290,6 +347,10 @@ def bench(quick: bool = False, only: list[str] | None = None) -> dict:
         empty, new_kernel, cached = pb.compile_times("B853")
         print(f"compile, B DOP853: empty caches {empty:.2f} s, new kernel {new_kernel:.2f} s, "
               f"cached {cached:.2f} s (load {os.getloadavg()[0]:.2f})")
+        print("\nA new composition (compile_bench.py, one pair each):\n")
+        medians = compile_bench.bench(list(compile_bench.PRESETS), 1)
+        print("compile_new_composition: " + " ".join(f"{p}={v:.2f}"
+                                                     for p, v in medians.items()))
     print("hgo_over_hand: " + " ".join(f"{k}={v:.2f}" for k, v in ratios.items()))
     return ratios
 

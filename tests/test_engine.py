@@ -161,16 +161,22 @@ def test_ensemble_members_keep_their_own_discrete_state() -> None:
         assert res["acc"][i][0] == pytest.approx(s.d0()[0] ** 2 * (64 - 27) / 3, rel=1e-4)
 
 
+def _noisy_members(seed: int, n: int, t_end: float) -> tuple:
+    """``n`` members of problem B (random p2, e(0)), each with its own noise held 0.013 s
+    over ``t_end``: (systems, params, z0, d0, noises)."""
+    rng = np.random.default_rng(seed)
+    systems = [sp_system(p2=float(p2), e0=tuple(e0))
+               for p2, e0 in zip(rng.uniform(0.5, 3, n), rng.uniform(-3, 3, (n, 2)),
+                                 strict=True)]
+    noises = [Noise(rng.uniform(-0.05, 0.05, (int(t_end / 0.013) + 2, 1)), 0.013)
+              for _ in systems]
+    return (systems, *stack_members(systems), noises)
+
+
 def test_ensemble_members_with_own_noise_and_early_exits() -> None:
     """An adaptive ensemble with per-member held noise, an odd count and members that leave
     the state bound early: every member equals its single run."""
-    rng = np.random.default_rng(5)
-    systems = [sp_system(p2=float(p2), e0=tuple(e0))
-               for p2, e0 in zip(rng.uniform(0.5, 3, 5), rng.uniform(-3, 3, (5, 2)),
-                                 strict=True)]
-    params, z0, d0 = stack_members(systems)
-    noises = [Noise(rng.uniform(-0.05, 0.05, (int(10 / 0.013) + 2, 1)), 0.013)
-              for _ in systems]
+    systems, params, z0, d0, noises = _noisy_members(5, 5, 10.0)
     solver = SolverSettings(t_end=10.0, dt_out=0.01, method="dop853", h_max=10.0,
                             state_bound=6.0)
     res = simulate_ensemble(systems[0], solver, noises, params, z0, d0)
@@ -180,6 +186,35 @@ def test_ensemble_members_with_own_noise_and_early_exits() -> None:
         assert res["status"][i] == tr.status and res["t_stop"][i] == tr.t_stop
         np.testing.assert_allclose(res["acc"][i], tr.acc, rtol=1e-12, atol=0,
                                    err_msg=f"member {i}")
+
+
+def test_ensemble_is_bit_identical_across_thread_counts() -> None:
+    """The ensemble's members (prange) run the same functions on one thread and on every
+    thread numba has: acc, status, t_stop and the recorded trajectories are equal bit for
+    bit (issue 41: the members must keep calling thread-safe, shared-nothing code)."""
+    import numba
+
+    threads = numba.config.NUMBA_NUM_THREADS
+    if threads < 2:
+        pytest.skip("numba has one thread here")
+    systems, params, z0, d0, noises = _noisy_members(7, 17, 4.0)
+    solver = SolverSettings(t_end=4.0, dt_out=0.01, method="dop853", h_max=10.0,
+                            state_bound=6.0)
+    before = numba.get_num_threads()
+    runs = []
+    try:
+        for n in (1, threads):
+            numba.set_num_threads(n)
+            runs.append(simulate_ensemble(systems[0], solver, noises, params, z0, d0,
+                                          record=True))
+    finally:
+        numba.set_num_threads(before)
+    one, many = runs
+    for key in ("acc", "status", "t_stop"):
+        np.testing.assert_array_equal(one[key], many[key], err_msg=key)
+    for a, b in zip(one["trajectories"], many["trajectories"], strict=True):
+        for field in ("t", "z", "y", "u", "xh"):
+            np.testing.assert_array_equal(getattr(a, field), getattr(b, field))
 
 
 def test_stack_members_rejects_different_layouts() -> None:

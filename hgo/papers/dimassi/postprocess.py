@@ -56,6 +56,7 @@ from hgo.outputs.recording import Series
 from hgo.plants.robot_arm import dimassi_psi
 from hgo.postprocess import PostOutput, dense
 from hgo.postprocess.dense import steps_of
+from hgo.postprocess.vector_field import vector_field
 
 
 def settle_time(run, signal, band: float, t_window: float, t_end: float) -> float:
@@ -209,6 +210,7 @@ class DHLMMetrics:
         rows = self._hgo_rows(system, traj, k, zn, blk["ideal"] > 0.5, blk, blk["eps"])
         rows += self._state_rows(sig, traj, n)
         rows += self._theta_rows(sig, traj, theta, nq)
+        dense.release(steps_of(traj), self.window_start, traj.t_stop)  # W: done with it
         if self.theory:
             beta_meas = next(v for q, v, _ in rows if q == "beta_measured")
             rows += self._theory(system, traj, obs, sig, theta, beta_meas, out)
@@ -237,9 +239,10 @@ class DHLMMetrics:
         T_eps = self.T_eps_factor * eps
         beta_meas = dense.maximum(run, lambda s: np.linalg.norm(
             self._eta(sig.zerr(s), blk, eps), axis=1), T_eps, T)[0] / eps
+        dense.release(run, T_eps, T)  # (sampled again for the last row of _theory)
         rows += [("T_eps", T_eps, None), ("beta_measured", float(beta_meas), None)]
-        h_max = [dense.maximum(run, lambda s, j=j: self._h_abs(system, s, blk)[:, j], *W)[0]
-                 for j in range(nn)]
+        h_abs = dense.LastValue(lambda s: self._h_abs(system, s, blk))
+        h_max = [dense.maximum(run, lambda s, j=j: h_abs(s)[:, j], *W)[0] for j in range(nn)]
         lags = self._lags(None, blk, eps, np.array(h_max))
         for j in range(nn):
             peak = dense.maximum(run, lambda s, j=j: np.abs(sig.zerr(s)[:, j]), *W)[0]
@@ -320,12 +323,7 @@ class DHLMMetrics:
     def _h_abs(system: System, traj: Trajectory, blk: dict) -> np.ndarray:
         """|h_i(t)| of (12) per z entry (the block's h; the derivative of z_iqi minus
         b_i2 u), from the plant's own vector field on the output grid."""
-        plant = system.plant
-        x = traj.z[:, :plant.nx]
-        dx = np.empty_like(x)
-        p = plant.p.record() if plant.params else plant.p  # every name read once
-        for j in range(len(traj.t)):
-            plant.f(traj.t[j], x[j], traj.u[j], p, dx[j])
+        dx = vector_field(system.plant, traj.t, traj.z[:, :system.plant.nx], traj.u)
         H, Bz2 = blk["H"], blk["Bz2"]
         first = blk["first"].astype(int)
         hs = np.zeros((len(traj.t), H.shape[0]))
@@ -384,7 +382,8 @@ class DHLMMetrics:
             psi_rows(obs.p, sig.x(s), s.u).reshape(len(s.t), -1), axis=1), 0.0, T)[0]
         u_max = dense.maximum(run, lambda s: np.max(np.abs(s.u), axis=1), 0.0, T)[0]
         rows += [("u_max", u_max, None), ("psi_max_bound", float(np.hypot(1.0, u_max)), None)]
-        h_max = max(dense.maximum(run, lambda s, j=j: self._h_abs(system, s, blk)[:, j],
+        h_abs = dense.LastValue(lambda s: self._h_abs(system, s, blk))
+        h_max = max(dense.maximum(run, lambda s, j=j: h_abs(s)[:, j],
                                   0.0, T)[0] for j in range(int(blk["N"])))
         beta_an = max(theory.beta_analytic(g, h_max) for g in self._block_gains(blk))
         args = (chk.P, chk.Q, L, M, B, theta, blk["delta"], blk["sigma"], blk["eps"])

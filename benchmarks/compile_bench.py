@@ -1,0 +1,94 @@
+"""What a new composition costs to compile (issue 41's target: <= 0.6 s CPU).
+
+    python benchmarks/compile_bench.py [--reps N] [--presets sp_fig1,dhlm_example]
+
+For each preset, fresh processes build the experiment and run it once
+(``hgo.running.runner.simulate_config``: build, simulate, post-process; no files, no
+figures), in turn:
+
+* **new**: with an empty kernel cache (``HGO_CACHE_DIR``, a new temporary folder each
+  time): the composition is not in the cache; numba's cache of hgo's own helpers (next
+  to their modules) is kept, as for a new combination of known components;
+* **cached**: the same run again with that folder (everything loaded from the cache).
+
+Each process reports its CPU seconds (``time.process_time``: all its threads) from just
+before building the experiment to the end of the run, and the seconds numba's compile
+events took inside (``hgo.engine.jit.run_seconds``). The new composition's cost is
+``new - cached`` CPU (medians of ``--reps`` pairs, the pairs interleaved across presets).
+Every line carries the load average: the machine is shared.
+
+The last line is ``compile_new_composition: <preset>=<CPU s> ...``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+
+PRESETS = ("sp_fig1", "dhlm_example")
+
+SNIPPET = """
+import json, time
+from hgo.core.config import compose
+from hgo.engine.jit import run_seconds
+from hgo.running.runner import simulate_config
+cfg = compose(["experiment={preset}"])
+t0 = time.process_time()
+with run_seconds() as seconds:
+    mem = simulate_config(cfg)
+print(json.dumps({{"cpu": time.process_time() - t0, "numba": seconds["compile"],
+                  "ok": bool(mem.trajectory.ok)}}))
+"""
+
+
+def one_run(preset: str, cache: str) -> dict:
+    """CPU seconds of one fresh process's run of ``preset`` with kernel cache ``cache``."""
+    env = dict(os.environ, HGO_CACHE_DIR=cache)
+    out = subprocess.run([sys.executable, "-c", SNIPPET.format(preset=preset)], env=env,
+                         check=True, capture_output=True, text=True)
+    result = json.loads(out.stdout.strip().splitlines()[-1])
+    if not result["ok"]:
+        raise RuntimeError(f"{preset}: the run failed")
+    return result
+
+
+def load() -> str:
+    return "/".join(f"{x:.1f}" for x in os.getloadavg())
+
+
+def bench(presets: list[str], reps: int) -> dict[str, float]:
+    """Median CPU seconds of new minus cached, per preset (table lines printed)."""
+    rows: dict[str, list[tuple[dict, dict]]] = {p: [] for p in presets}
+    print("| preset | pair | new: CPU s (numba's compile events, wall s) | cached: CPU s "
+          "(numba, wall s) | new - cached, CPU s | load 1/5/15 min |")
+    print("|---|---|---|---|---|---|")
+    for k in range(reps):
+        for preset in presets:
+            with tempfile.TemporaryDirectory(prefix="hgo-compile-bench-") as cache:
+                new = one_run(preset, cache)
+                cached = one_run(preset, cache)
+            rows[preset].append((new, cached))
+            print(f"| {preset} | {k + 1} | {new['cpu']:.2f} ({new['numba']:.2f}) | "
+                  f"{cached['cpu']:.2f} ({cached['numba']:.2f}) | "
+                  f"{new['cpu'] - cached['cpu']:.2f} | {load()} |", flush=True)
+    return {p: statistics.median(n["cpu"] - c["cpu"] for n, c in pairs)
+            for p, pairs in rows.items()}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--reps", type=int, default=3)
+    parser.add_argument("--presets", default=",".join(PRESETS))
+    args = parser.parse_args()
+    print(f"# compile of a new composition (CPU s; start load {load()})\n")
+    medians = bench([p for p in args.presets.split(",") if p], args.reps)
+    print("\ncompile_new_composition: " + " ".join(f"{p}={v:.2f}" for p, v in medians.items()))
+
+
+if __name__ == "__main__":
+    main()
