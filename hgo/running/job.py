@@ -23,14 +23,14 @@ from pathlib import Path
 from hydra.experimental.callback import Callback
 from omegaconf import DictConfig, OmegaConf
 
-from hgo.core.errors import PlainError, is_config_error, one_line
+from hgo.core.errors import is_config_error, one_line
 from hgo.core.memory import release_freed_memory, skip_exit_collection
 from hgo.core.validate import check_run_name
+from hgo.running.run_dirs import LOCK, RunDirBusy, guard_sweep_dir, lock_run_dir, unlock_run_dir
 
 log = logging.getLogger(__name__)
 EXIT_CONFIG, EXIT_FAILED, EXIT_INTERRUPTED = 2, 1, 130
 _EXIT_CODES: list[int] = []  # of the jobs of this process that did not succeed
-LOCK = ".hgo_lock"  # held (flock) in a run directory while a run writes it
 _HYDRA_FILES = {".hydra", LOCK}
 
 
@@ -119,56 +119,22 @@ def mark_complete(cfg: DictConfig, out_dir: str | Path) -> None:
         partial.write_text("\n".join([config_hash(cfg), *files]) + "\n")
 
 
-class RunDirBusy(PlainError, OSError):
-    """Another run is writing the run directory."""
-
-
-_LOCKS: dict[Path, int] = {}  # run directory -> the descriptor holding its lock
-
-
-def lock_run_dir(out_dir: str | Path) -> None:
-    """Hold the lock of ``out_dir`` (created if needed) for this process, or raise
-    :class:`RunDirBusy` at once when another process holds it: two runs into one
-    ``hydra.run.dir`` left a mix of both marked complete. The lock goes with the process
-    (``flock``): a killed run leaves none behind. Idempotent within a process."""
-    import fcntl
-
-    path = Path(out_dir).resolve()
-    if path in _LOCKS:
-        return
-    path.mkdir(parents=True, exist_ok=True)
-    fd = os.open(path / LOCK, os.O_RDWR | os.O_CREAT, 0o644)
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except BlockingIOError:
-        holder = os.pread(fd, 32, 0).decode(errors="replace").strip() or "?"
-        os.close(fd)
-        raise RunDirBusy(f"{path} is being written by another run (pid {holder}); give "
-                         "this run another hydra.run.dir or wait for that one") from None
-    os.ftruncate(fd, 0)
-    os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
-    _LOCKS[path] = fd
-
-
-def unlock_run_dir(out_dir: str | Path) -> None:
-    fd = _LOCKS.pop(Path(out_dir).resolve(), None)
-    if fd is not None:
-        os.close(fd)
-
-
 class RunGuard(Callback):
     """Hydra callback (``conf/config.yaml``): before Hydra writes anything, ``run_name``
-    must be a plain name (``run_name=..`` wrote outside ``outputs/``) and a single run's
+    must be a plain name (``run_name=..`` wrote outside ``outputs/``), a single run's
     directory must not be in use by another run (:func:`lock_run_dir`; Hydra would
-    overwrite that run's ``.hydra/`` first). Hydra turns a callback's exception into a
-    warning and goes on, so a refusal here is the one line and ``SystemExit``."""
+    overwrite that run's ``.hydra/`` first), and a sweep's directory neither in use nor
+    holding another sweep (:func:`hgo.running.run_dirs.guard_sweep_dir`). Hydra turns a
+    callback's exception into a warning and goes on, so a refusal here is the one line and
+    ``SystemExit``."""
 
     def on_run_start(self, config: DictConfig, **kwargs) -> None:
         self._refuse_unless(lambda: (check_run_name(config.get("run_name", "run")),
                                      lock_run_dir(config.hydra.run.dir)))
 
     def on_multirun_start(self, config: DictConfig, **kwargs) -> None:
-        self._refuse_unless(lambda: check_run_name(config.get("run_name", "run")))
+        self._refuse_unless(lambda: (check_run_name(config.get("run_name", "run")),
+                                     guard_sweep_dir(config)))
 
     @staticmethod
     def _refuse_unless(check) -> None:
