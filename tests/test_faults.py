@@ -217,12 +217,17 @@ CTRL_C_WRITER = textwrap.dedent('''
 ''')
 
 
-def test_ctrl_c_while_writing_leaves_only_a_partial_recording(tmp_path):
+def test_ctrl_c_while_writing_keeps_the_metrics_and_a_partial_recording(tmp_path):
     """KeyboardInterrupt in the middle of the recording (where SIGINT would raise it):
-    no recording.rrd, a recording.rrd.partial that read_recording calls truncated, no
-    metrics.csv; the job ends with exit 130. In its own process, as a Ctrl-C ends one:
+    no recording.rrd, a recording.rrd.partial that read_recording calls truncated; the
+    finished simulation's metrics.csv and a run.json marked interrupted while writing are
+    kept (both were lost), one line naming the phase; the job ends with exit 130. In its
+    own process, as a Ctrl-C ends one:
     the interrupted stream's native state, left in a long-lived process, made Rerun fail
     every recording of processes later forked from it (hgo reproduce's workers)."""
+    import json
+
+    import pandas as pd
     import pytest
 
     from hgo.outputs.recording import RecordingIncomplete, read_recording
@@ -233,7 +238,13 @@ def test_ctrl_c_while_writing_leaves_only_a_partial_recording(tmp_path):
                            capture_output=True, text=True, timeout=300)
     assert ended.returncode == 130, ended.stderr[-2000:]
     assert not (tmp_path / "recording.rrd").exists()
-    assert not (tmp_path / "metrics.csv").exists()
+    assert ended.stderr.strip().splitlines() == [
+        "error: interrupted while writing recording.rrd; the simulation had finished: "
+        f"metrics.csv and run.json are in {tmp_path}"]
+    assert set(pd.read_csv(tmp_path / "metrics.csv").status) == {"ok"}
+    assert json.loads((tmp_path / "run.json").read_text())["status"] == (
+        "interrupted while writing recording.rrd (the simulation had finished; metrics.csv "
+        "complete)")
     with pytest.raises(RecordingIncomplete, match="truncated"):
         read_recording(tmp_path / "recording.rrd.partial")
     with pytest.warns(RuntimeWarning, match="truncated"):

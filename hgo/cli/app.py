@@ -102,7 +102,7 @@ def main(cfg: DictConfig) -> None:
         discard_prestarted()  # (the jobs share this process and draw in it)
         note_job(Path(hc.sweep.dir), out_dir.name)  # the summary lists this sweep's jobs
     skipped = bool(cfg.get("resume", False)) and is_complete(cfg, out_dir)
-    code = run_job(cfg, out_dir, figures_aside=not multirun)
+    code = run_job(cfg, out_dir, figures_aside=not multirun, complete=skipped)
     if multirun and code:  # for the summary in the sweep's process (any launcher)
         from hgo.running.aggregate import record_failure
 

@@ -38,6 +38,7 @@ class _CompileBar(Listener):
 
     def __init__(self, method: str) -> None:
         self.method, self.depth, self.seconds = method, 0, 0.0
+        self.interrupted = False  # a compile ended by Ctrl-C (KeyboardInterrupt)
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
 
@@ -51,6 +52,8 @@ class _CompileBar(Listener):
 
     def on_end(self, event) -> None:
         self.depth -= 1
+        kind = (getattr(event, "exc_details", None) or (None,))[0]
+        self.interrupted |= isinstance(kind, type) and issubclass(kind, KeyboardInterrupt)
         if self.depth == 0:
             self.seconds += time.perf_counter() - self._t0
             self._stop.set()
