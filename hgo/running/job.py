@@ -46,8 +46,11 @@ _LAST_ERROR: list[str] = []  # the one line of this process's last failed job
 def report(err: BaseException, code: int) -> None:
     """Write ``error: <one line>`` to stderr and remember the job's exit code."""
     line = one_line(err)
-    sys.stderr.write(f"error: {line}\n")
-    sys.stderr.flush()
+    try:
+        sys.stderr.write(f"error: {line}\n")
+        sys.stderr.flush()
+    except OSError:  # a closed terminal (SIGHUP): run.json holds the status
+        pass
     _EXIT_CODES.append(code)
     _LAST_ERROR[:] = [line]
 

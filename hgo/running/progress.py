@@ -52,7 +52,7 @@ class _CompileBar(Listener):
 
     def on_end(self, event) -> None:
         self.depth -= 1
-        kind = (getattr(event, "exc_details", None) or (None,))[0]
+        kind = (getattr(event, "_exc_details", None) or (None,))[0]  # (numba keeps it private)
         self.interrupted |= isinstance(kind, type) and issubclass(kind, KeyboardInterrupt)
         if self.depth == 0:
             self.seconds += time.perf_counter() - self._t0

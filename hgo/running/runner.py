@@ -34,6 +34,7 @@ from hgo.core.components import Controller, Observer, Plant
 from hgo.core.errors import ConfigError
 from hgo.core.validate import check_cost as _check_sizes
 from hgo.core.validate import check_values
+from hgo.engine.interrupt import LAST_WORDS
 from hgo.engine.jit import run_seconds
 from hgo.engine.simulate import INTERRUPTED, SolverSettings, Trajectory, check_split, simulate
 from hgo.engine.system import System
@@ -463,7 +464,12 @@ def run(cfg: DictConfig, out_dir: str | Path, figures: FigureWorker | None = Non
     there while the recording is written."""
     out_dir = Path(out_dir)
     started = datetime.now()
-    mem = simulate_config(cfg)
+    last_words = functools.partial(_busy_kernel_stopped, cfg, out_dir, started)
+    LAST_WORDS.append(last_words)
+    try:
+        mem = simulate_config(cfg)
+    finally:
+        LAST_WORDS.remove(last_words)
     out_dir.mkdir(parents=True, exist_ok=True)
     exp, traj, table = mem.experiment, mem.trajectory, mem.metrics
     series = signals(exp.system, traj) + mem.post.series
@@ -508,6 +514,14 @@ def run(cfg: DictConfig, out_dir: str | Path, figures: FigureWorker | None = Non
     result.timings["figures"] = time.perf_counter() - t2
     track(cfg, out_dir, started, "ok", result.timings, table)
     return result
+
+
+def _busy_kernel_stopped(cfg: DictConfig, out_dir: Path, started: datetime) -> None:
+    """``run.json`` of a run whose kernel ignored Ctrl-C (user code looping) and is ended
+    by a second one (:mod:`hgo.engine.interrupt`): no trajectory, the status says why."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    track(cfg, out_dir, started, "interrupted while integrating: the kernel was busy (user "
+          "code that does not return) and was stopped without its trajectory", {}, None)
 
 
 def track(cfg: DictConfig, out_dir: Path, started: datetime, status: str,
