@@ -654,3 +654,49 @@ def test_ctrl_c_before_anything_is_written_names_the_phase(monkeypatch, tmp_path
     assert ended.value.code == 130
     assert capsys.readouterr().err.splitlines() == [
         f"error: interrupted while {where}; nothing was written"]
+
+
+# --- a full or damaged kernel cache (issue 40, item 6) ---------------------------------
+
+
+def test_a_full_kernel_cache_falls_back_to_a_private_folder(tmp_path, monkeypatch):
+    """A write into the kernel cache failing with ENOSPC (a full disk) failed the run; now
+    one warning, the entry and every later one in a private folder, as for an unwritable
+    cache."""
+    import errno
+
+    import pytest
+
+    from hgo.engine import codegen
+
+    wanted = tmp_path / "kernels"
+    monkeypatch.setenv("HGO_CACHE_DIR", str(wanted))
+    monkeypatch.setattr(codegen, "_PRIVATE", {})
+    real = codegen._atomic_write
+
+    def full(path, text):
+        if path.parent == wanted:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        real(path, text)
+
+    monkeypatch.setattr(codegen, "_atomic_write", full)
+    with pytest.warns(RuntimeWarning, match=r"kernels cannot be written \(No space left on "
+                                            r"device\); compiling into "):
+        path = codegen._write_once("x = 1\n")
+    assert path.parent != wanted and path.read_text() == "x = 1\n"
+    assert codegen.cache_dir() == path.parent
+
+
+def test_a_kernel_cache_entry_replaced_by_a_folder_is_rebuilt(tmp_path, monkeypatch):
+    import pytest
+
+    from hgo.engine import codegen
+
+    monkeypatch.setenv("HGO_CACHE_DIR", str(tmp_path))
+    path = codegen._write_once("y = 2\n")
+    path.unlink()
+    path.mkdir()
+    (path / "inside").write_text("")
+    with pytest.warns(RuntimeWarning, match="is a folder; rebuilding it"):
+        assert codegen._write_once("y = 2\n") == path
+    assert path.read_text() == "y = 2\n"

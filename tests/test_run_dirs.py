@@ -169,3 +169,17 @@ def test_the_same_sweep_is_told_from_another_by_its_multirun_yaml(tmp_path):
     (tmp_path / MULTIRUN).write_text(yaml.safe_dump(saved))
     with pytest.raises(ConfigError, match="composed config differs"):
         check_same_sweep(compose(["experiment=sp_oscillation", "seed=1"]), tmp_path)
+
+
+@pytest.mark.parametrize("key", ["hydra.run.dir", "hydra.sweep.dir"])
+def test_a_run_or_sweep_directory_that_is_a_file_is_one_line(tmp_path, key):
+    """``hydra.run.dir=afile``: a UserWarning from Hydra, then a FileExistsError line with
+    exit 0; now one line naming the key, exit 2."""
+    (tmp_path / "afile").write_text("mine")
+    args = ["-m"] if key == "hydra.sweep.dir" else []
+    code, _, err = _finish(_start([*args, *SHORT, f"{key}=afile"], tmp_path))
+    assert code == 2
+    assert err.strip().splitlines() == [
+        f"error: {key}: {tmp_path / 'afile'} is a file, not a directory (allowed: a "
+        "directory, or a path to create)"]
+    assert (tmp_path / "afile").read_text() == "mine"

@@ -36,17 +36,23 @@ _LOCKS: dict[Path, int] = {}  # run directory -> the descriptor holding its lock
 
 
 def lock_run_dir(out_dir: str | Path, key: str = "hydra.run.dir") -> None:
-    """Hold the lock of ``out_dir`` (created if needed) for this process, or raise
-    :class:`RunDirBusy` (naming the option ``key`` that sets the directory) at once when
-    another process holds it: two runs into one ``hydra.run.dir`` left a mix of both
-    marked complete. The lock goes with the process (``flock``): a killed run leaves none
-    behind. Idempotent within a process."""
+    """Hold the lock of ``out_dir`` (created if needed; a :class:`ConfigError` naming the
+    option ``key`` that sets it when it cannot be) for this process, or raise
+    :class:`RunDirBusy` at once when another process holds it: two runs into one
+    ``hydra.run.dir`` left a mix of both marked complete. The lock goes with the process
+    (``flock``): a killed run leaves none behind. Idempotent within a process."""
     import fcntl
 
     path = Path(out_dir).resolve()
     if path in _LOCKS:
         return
-    path.mkdir(parents=True, exist_ok=True)
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except FileExistsError:
+        raise ConfigError(key, f"{path} is a file, not a directory",
+                          "a directory, or a path to create") from None
+    except OSError as err:  # a parent that is a file, no permission
+        raise ConfigError(key, f"cannot create {path} ({err.strerror or err})") from None
     fd = os.open(path / LOCK, os.O_RDWR | os.O_CREAT, 0o644)
     try:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
