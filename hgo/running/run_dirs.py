@@ -23,7 +23,7 @@ from omegaconf import DictConfig, OmegaConf
 from hgo.core.errors import ConfigError, PlainError
 
 LOCK = ".hgo_lock"  # held (flock) in a run directory while a run writes it
-JOBS = ".hgo_jobs"  # in a sweep directory: an empty file per job of the sweep that ran last
+JOBS = ".hgo_jobs"  # in a sweep directory: the jobs of the sweep that ran last, one a line
 FAILED = ".hgo_failed"  # in a sweep directory: <job name> -> "<exit code>\n<one line>"
 MULTIRUN = "multirun.yaml"  # Hydra's record of a sweep in its directory
 
@@ -160,16 +160,17 @@ def guard_sweep_dir(config: DictConfig) -> None:
     sweep = Path(config.hydra.sweep.dir)
     lock_run_dir(sweep, "hydra.sweep.dir")
     check_same_sweep(config, sweep)
-    for notes in (JOBS, FAILED):
-        shutil.rmtree(sweep / notes, ignore_errors=True)
-    (sweep / JOBS).mkdir()
+    shutil.rmtree(sweep / FAILED, ignore_errors=True)
+    (sweep / JOBS).write_text("")
 
 
 def note_job(sweep: Path, job: str) -> None:
-    """Record that ``job`` (a folder of ``sweep``) belongs to the sweep now running."""
-    folder = Path(sweep) / JOBS
-    if folder.is_dir():
-        (folder / job).touch()
+    """Record that ``job`` (a folder of ``sweep``) belongs to the sweep now running (one
+    appended line: jobs in other processes may add theirs at once)."""
+    notes = Path(sweep) / JOBS
+    if notes.is_file():
+        with open(notes, "a") as fh:
+            fh.write(f"{job}\n")
 
 
 def _job_key(p: Path) -> tuple:
@@ -183,8 +184,9 @@ def sweep_jobs(sweep: Path) -> list[Path]:
     with a ``.hydra/`` or named ``job*``."""
     sweep = Path(sweep)
     notes = sweep / JOBS
-    if notes.is_dir():
-        jobs = [sweep / p.name for p in notes.iterdir() if (sweep / p.name).is_dir()]
+    if notes.is_file():
+        jobs = [sweep / name for name in notes.read_text().split("\n")
+                if name and (sweep / name).is_dir()]
     else:
         jobs = [p for p in sweep.iterdir() if p.is_dir()
                 and ((p / ".hydra").is_dir() or p.name.startswith("job"))]
