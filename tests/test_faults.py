@@ -700,3 +700,33 @@ def test_a_kernel_cache_entry_replaced_by_a_folder_is_rebuilt(tmp_path, monkeypa
     with pytest.warns(RuntimeWarning, match="is a folder; rebuilding it"):
         assert codegen._write_once("y = 2\n") == path
     assert path.read_text() == "y = 2\n"
+
+
+UNSAVED = textwrap.dedent('''
+    import errno, sys, warnings
+    warnings.simplefilter("always")
+    import numba.core.caching as caching
+    from hgo.engine.codegen import compiled_first
+    sys.path.insert(0, sys.argv[1])
+    import kern
+
+    def full(self, key, data):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    caching.IndexDataCacheFile.save = full
+    print(compiled_first(kern.outer, kern.__file__)(1.0))
+''')
+
+
+def test_a_compiled_kernel_that_numba_cannot_save_still_runs(tmp_path):
+    """numba saving a compiled kernel and its cached helper hits ENOSPC (a full disk): the
+    run failed after compiling; now one warning and the kernel runs (for this process)."""
+    (tmp_path / "kern.py").write_text(
+        "import numba\n\n@numba.njit(cache=True)\ndef helper(x):\n    return x + 1.0\n\n\n"
+        "@numba.njit(cache=True)\ndef outer(x):\n    return 2.0 * helper(x)\n")
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "NUMBA_CACHE_DIR": str(tmp_path / "nb")}
+    out = subprocess.run([sys.executable, "-c", UNSAVED, str(tmp_path)], env=env,
+                         capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.strip() == "4.0"
+    assert out.stderr.count("RuntimeWarning") == 1 and "cannot save" in out.stderr

@@ -508,11 +508,37 @@ def compiled_first(fn, path: Path | str):
         if fn not in _COMPILED:
             if not fn.signatures:
                 with entry_lock(Path(path)):
-                    fn.compile(tuple(fn.typeof_pyval(a) for a in args))
+                    compile_unsaved(fn, tuple(fn.typeof_pyval(a) for a in args))
             _COMPILED.add(fn)
         return fn(*args)
 
     return call
+
+
+def compile_unsaved(fn, signature: tuple) -> None:
+    """``fn.compile(signature)``, kept for this process when numba cannot save it into its
+    cache (a full disk): numba adds a function's compiled code before it saves it, so each
+    retry goes past one more function (the kernel or a helper it calls) whose save failed;
+    one warning."""
+    warned = False
+    for _ in range(MAX_UNSAVED):
+        try:
+            fn.compile(signature)
+            return
+        except OSError as err:
+            if err.errno not in UNWRITABLE:
+                raise
+            if not warned:
+                warnings.warn(f"hgo: numba cannot save the compiled kernel into its cache "
+                              f"({os.strerror(err.errno)}); it is compiled for this process "
+                              "only", RuntimeWarning, stacklevel=4)
+                warned = True
+            if fn.signatures:  # compiled; only the save failed
+                return
+    fn.compile(signature)
+
+
+MAX_UNSAVED = 64  # functions (the kernel and its helpers) whose save may fail in one compile
 
 
 # kernel functions compiled or loaded in this process (their later calls go straight in:
