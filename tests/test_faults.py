@@ -12,6 +12,8 @@ import sys
 import textwrap
 from pathlib import Path
 
+import pytest
+
 RUN = textwrap.dedent('''
     import warnings
     warnings.simplefilter("always")
@@ -217,12 +219,17 @@ CTRL_C_WRITER = textwrap.dedent('''
 ''')
 
 
-def test_ctrl_c_while_writing_leaves_only_a_partial_recording(tmp_path):
+def test_ctrl_c_while_writing_keeps_the_metrics_and_a_partial_recording(tmp_path):
     """KeyboardInterrupt in the middle of the recording (where SIGINT would raise it):
-    no recording.rrd, a recording.rrd.partial that read_recording calls truncated, no
-    metrics.csv; the job ends with exit 130. In its own process, as a Ctrl-C ends one:
+    no recording.rrd, a recording.rrd.partial that read_recording calls truncated; the
+    finished simulation's metrics.csv and a run.json marked interrupted while writing are
+    kept (both were lost), one line naming the phase; the job ends with exit 130. In its
+    own process, as a Ctrl-C ends one:
     the interrupted stream's native state, left in a long-lived process, made Rerun fail
     every recording of processes later forked from it (hgo reproduce's workers)."""
+    import json
+
+    import pandas as pd
     import pytest
 
     from hgo.outputs.recording import RecordingIncomplete, read_recording
@@ -233,7 +240,13 @@ def test_ctrl_c_while_writing_leaves_only_a_partial_recording(tmp_path):
                            capture_output=True, text=True, timeout=300)
     assert ended.returncode == 130, ended.stderr[-2000:]
     assert not (tmp_path / "recording.rrd").exists()
-    assert not (tmp_path / "metrics.csv").exists()
+    assert ended.stderr.strip().splitlines() == [
+        "error: interrupted while writing recording.rrd; the simulation had finished: "
+        f"metrics.csv and run.json are in {tmp_path}"]
+    assert set(pd.read_csv(tmp_path / "metrics.csv").status) == {"ok"}
+    assert json.loads((tmp_path / "run.json").read_text())["status"] == (
+        "interrupted while writing recording.rrd (the simulation had finished; metrics.csv "
+        "complete)")
     with pytest.raises(RecordingIncomplete, match="truncated"):
         read_recording(tmp_path / "recording.rrd.partial")
     with pytest.warns(RuntimeWarning, match="truncated"):
@@ -477,27 +490,111 @@ def test_sigterm_ends_a_run_like_ctrl_c(tmp_path):
 
 
 def test_ctrl_c_while_compiling_says_so_and_stops_when_compiled(capfd):
-    """The kernel call is stuck (numba compiling, ~6 s): Ctrl-C shows one line saying the
-    run stops once compiled, and the call returns as soon as it does."""
+    """The kernel call is stuck in numba's compiler (its lock held, ~6 s in a real compile):
+    Ctrl-C shows one line saying the run stops once compiled, and the call returns as soon
+    as it does."""
     import signal
     import time
 
     import numpy as np
+    from numba.core.compiler_lock import global_compiler_lock
 
     from hgo.engine.interrupt import interruptible
+
+    def compile_then_run():
+        with global_compiler_lock:
+            time.sleep(1.5)
+        return "compiled"
 
     ctl = np.zeros(1)
     previous = signal.signal(signal.SIGALRM, lambda *a: signal.raise_signal(signal.SIGINT))
     signal.setitimer(signal.ITIMER_REAL, 0.2)
     t0 = time.monotonic()
     try:
-        value = interruptible(lambda: time.sleep(1.5) or "compiled", (), ctl)
+        value = interruptible(compile_then_run, (), ctl)
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, previous)
     assert value == "compiled" and ctl[0] == 1 and time.monotonic() - t0 < 5
     assert capfd.readouterr().err == ("interrupted: stopping once numba has compiled the "
                                       "kernel (Ctrl-C again to stop at once)\n")
+
+
+BUSY_KERNEL = textwrap.dedent('''
+    import sys
+    import numba
+    import numpy as np
+    from hgo.engine.interrupt import LAST_WORDS, interruptible
+
+    @numba.njit(nogil=True, cache=False)
+    def spin(a):  # user code that never returns and never reads the stop flag
+        x = 0.0
+        while a[0] == 0.0:
+            x += 1.0
+            a[1] = x
+        return x
+
+    a = np.zeros(2)
+    spin(np.ones(2))  # compiled before the signals
+    LAST_WORDS.append(lambda: open(sys.argv[1], "w").write("last words"))
+    print("spinning", flush=True)
+    interruptible(spin, (a,), np.zeros(3))
+''')
+
+
+@pytest.mark.parametrize("sig", ["SIGINT", "SIGHUP"])
+def test_a_second_signal_stops_a_busy_kernel_within_two_seconds(tmp_path, sig):
+    """A kernel looping in user code never checks the stop flag, and a Python handler never
+    runs while it holds the main thread: every Ctrl-C said "stopping once numba has compiled
+    the kernel" and only SIGKILL ended it. Now the first says the kernel is busy, the second
+    ends the process within 2 s (exit 130) after the run's last words (its run.json)."""
+    import signal
+    import time
+
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    script = ("import signal\nsignal.signal(signal.SIGHUP, signal.default_int_handler)\n"
+              + BUSY_KERNEL)
+    proc = subprocess.Popen([sys.executable, "-c", script, str(tmp_path / "last")], env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert proc.stdout.readline().strip() == "spinning"
+        time.sleep(0.5)
+        proc.send_signal(getattr(signal, sig))
+        time.sleep(1.0)
+        assert proc.poll() is None  # the first signal: a notice, the kernel still runs
+        proc.send_signal(getattr(signal, sig))
+        t0 = time.monotonic()
+        code = proc.wait(timeout=10)
+        stopped_in = time.monotonic() - t0
+    finally:
+        proc.kill()
+        proc.wait()
+    err = proc.stderr.read()
+    assert code == 130 and stopped_in < 2.0, (code, stopped_in, err)
+    assert err.splitlines() == [
+        "interrupted: the kernel is busy and has not stopped (not compiling: user code that "
+        "does not return, e.g. a loop, never checks the stop flag); Ctrl-C again to stop at "
+        "once",
+        "error: interrupted while integrating: the kernel was busy (user code that does not "
+        "return); stopped at once, without the trajectory"]
+    assert (tmp_path / "last").read_text() == "last words"
+
+
+def test_sighup_ends_a_run_like_sigterm(tmp_path):
+    """SIGHUP (an ssh session dropping) ended a run in 0.5 s leaving only app.log; now it
+    is SIGTERM's exit 130 with metrics.csv and run.json marked interrupted."""
+    import json
+    import signal
+
+    import pandas as pd
+
+    run_dir = tmp_path / "long"
+    proc = _start_long_run(run_dir, tmp_path)
+    proc.send_signal(signal.SIGHUP)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert set(pd.read_csv(run_dir / "metrics.csv").status) == {"interrupted"}
+    assert json.loads((run_dir / "run.json").read_text())["status"].startswith("interrupted")
 
 
 ENVELOPE = textwrap.dedent('''
@@ -532,3 +629,104 @@ def test_garbage_in_hgos_own_numba_cache_is_repaired_with_one_warning(tmp_path):
     assert out.stderr.count("RuntimeWarning") == 1 and "is damaged" in out.stderr, out.stderr
     out = run()
     assert float(out.stdout) == value and "Warning" not in out.stderr
+
+
+@pytest.mark.parametrize("where", ["compiling the kernel (numba)", "integrating"])
+def test_ctrl_c_before_anything_is_written_names_the_phase(monkeypatch, tmp_path, capsys,
+                                                           where):
+    """Ctrl-C while numba compiles (inside its compile event) or while integrating: the
+    job's one line names that phase (a compile said "while writing ... .partial")."""
+    from numba.core.event import trigger_event
+
+    import hgo.running.runner as runner
+    from hgo.core.config import compose
+    from hgo.running.job import run_job
+
+    def stopped(exp):
+        if where == "integrating":
+            raise KeyboardInterrupt
+        with trigger_event("numba:compile"):
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(runner, "run_experiment", stopped)
+    with pytest.raises(SystemExit) as ended:
+        run_job(compose(SHORT, tmp_path), tmp_path)
+    assert ended.value.code == 130
+    assert capsys.readouterr().err.splitlines() == [
+        f"error: interrupted while {where}; nothing was written"]
+
+
+# --- a full or damaged kernel cache (issue 40, item 6) ---------------------------------
+
+
+def test_a_full_kernel_cache_falls_back_to_a_private_folder(tmp_path, monkeypatch):
+    """A write into the kernel cache failing with ENOSPC (a full disk) failed the run; now
+    one warning, the entry and every later one in a private folder, as for an unwritable
+    cache."""
+    import errno
+
+    import pytest
+
+    from hgo.engine import codegen
+
+    wanted = tmp_path / "kernels"
+    monkeypatch.setenv("HGO_CACHE_DIR", str(wanted))
+    monkeypatch.setattr(codegen, "_PRIVATE", {})
+    real = codegen._atomic_write
+
+    def full(path, text):
+        if path.parent == wanted:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        real(path, text)
+
+    monkeypatch.setattr(codegen, "_atomic_write", full)
+    with pytest.warns(RuntimeWarning, match=r"kernels cannot be written \(No space left on "
+                                            r"device\); compiling into "):
+        path = codegen._write_once("x = 1\n")
+    assert path.parent != wanted and path.read_text() == "x = 1\n"
+    assert codegen.cache_dir() == path.parent
+
+
+def test_a_kernel_cache_entry_replaced_by_a_folder_is_rebuilt(tmp_path, monkeypatch):
+    import pytest
+
+    from hgo.engine import codegen
+
+    monkeypatch.setenv("HGO_CACHE_DIR", str(tmp_path))
+    path = codegen._write_once("y = 2\n")
+    path.unlink()
+    path.mkdir()
+    (path / "inside").write_text("")
+    with pytest.warns(RuntimeWarning, match="is a folder; rebuilding it"):
+        assert codegen._write_once("y = 2\n") == path
+    assert path.read_text() == "y = 2\n"
+
+
+UNSAVED = textwrap.dedent('''
+    import errno, sys, warnings
+    warnings.simplefilter("always")
+    import numba.core.caching as caching
+    from hgo.engine.codegen import compiled_first
+    sys.path.insert(0, sys.argv[1])
+    import kern
+
+    def full(self, key, data):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    caching.IndexDataCacheFile.save = full
+    print(compiled_first(kern.outer, kern.__file__)(1.0))
+''')
+
+
+def test_a_compiled_kernel_that_numba_cannot_save_still_runs(tmp_path):
+    """numba saving a compiled kernel and its cached helper hits ENOSPC (a full disk): the
+    run failed after compiling; now one warning and the kernel runs (for this process)."""
+    (tmp_path / "kern.py").write_text(
+        "import numba\n\n@numba.njit(cache=True)\ndef helper(x):\n    return x + 1.0\n\n\n"
+        "@numba.njit(cache=True)\ndef outer(x):\n    return 2.0 * helper(x)\n")
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "NUMBA_CACHE_DIR": str(tmp_path / "nb")}
+    out = subprocess.run([sys.executable, "-c", UNSAVED, str(tmp_path)], env=env,
+                         capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.strip() == "4.0"
+    assert out.stderr.count("RuntimeWarning") == 1 and "cannot save" in out.stderr

@@ -31,8 +31,19 @@ def run_app(args: list[str], prog: str = "hgo run") -> int:
         prestart()
     try:
         return _run_hydra_app(args, prog)
+    except KeyboardInterrupt:  # outside a job's own handling: composing, a sweep's summary
+        return interrupted(prog)
     finally:
         discard_prestarted()
+
+
+def interrupted(what: str) -> int:
+    """Ctrl-C (SIGTERM, SIGHUP) that reached the command itself: one line, exit 130."""
+    try:
+        print(f"error: interrupted ({what}), before or after its runs", file=sys.stderr)
+    except OSError:  # a closed terminal (SIGHUP)
+        pass
+    return 130
 
 
 def _run_hydra_app(args: list[str], prog: str) -> int:
@@ -57,6 +68,8 @@ def _run_hydra_app(args: list[str], prog: str) -> int:
     # (by default it ended the process at once, marking nothing). Python's own Ctrl-C
     # handler: the engine watches the signals that have it (hgo.engine.interrupt).
     signal.signal(signal.SIGTERM, signal.default_int_handler)
+    if hasattr(signal, "SIGHUP"):  # a closed terminal or ssh session: the same, not a loss
+        signal.signal(signal.SIGHUP, signal.default_int_handler)
     if single_run(args):  # one composition of the config, not Hydra's two
         from hgo.cli.compose_once import composed_once
 
@@ -174,6 +187,8 @@ def main(argv: list[str] | None = None) -> int:
     except BrokenPipeError:  # `hgo runs | head`: the reader left, nothing to report
         sys.stderr.close()
         return 0
+    except KeyboardInterrupt:  # outside a run's own handling (hgo runs, view, reproduce)
+        return interrupted(f"hgo {argv[0]}")
 
 
 if __name__ == "__main__":

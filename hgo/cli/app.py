@@ -26,8 +26,10 @@ from hgo.core.config import conf_dir, register_configs
 from hgo.outputs.console import job_line
 from hgo.running.figure_worker import discard_prestarted
 from hgo.running.job import EXIT_CONFIG, is_complete, last_error, one_line_errors, run_job
+from hgo.running.run_dirs import lock_job_dirs_first, note_job
 
 register_configs()
+lock_job_dirs_first()  # (here: a joblib worker imports this module to run its jobs)
 OUTPUTS = Path("outputs")
 
 
@@ -98,8 +100,9 @@ def main(cfg: DictConfig) -> None:
     if multirun:  # one line per job on the console; the table is in metrics.csv
         logging.getLogger("hgo").setLevel(logging.WARNING)
         discard_prestarted()  # (the jobs share this process and draw in it)
+        note_job(Path(hc.sweep.dir), out_dir.name)  # the summary lists this sweep's jobs
     skipped = bool(cfg.get("resume", False)) and is_complete(cfg, out_dir)
-    code = run_job(cfg, out_dir, figures_aside=not multirun)
+    code = run_job(cfg, out_dir, figures_aside=not multirun, complete=skipped)
     if multirun and code:  # for the summary in the sweep's process (any launcher)
         from hgo.running.aggregate import record_failure
 

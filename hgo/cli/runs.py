@@ -12,6 +12,7 @@ from pathlib import Path
 import pandas as pd
 
 from hgo.core.errors import one_line
+from hgo.outputs.integrity import Damaged, check_run
 from hgo.outputs.runs import BadRunRecord, load, read_run_json
 from hgo.outputs.user_code import differences
 
@@ -21,6 +22,12 @@ SHOWN = ["path", "run_name", "status", "started", "seconds.simulate"]
 def _error(message: str) -> int:
     print(f"error: {message}", file=sys.stderr)
     return 2
+
+
+def _damaged(err: Damaged) -> int:
+    """A run's file changed since the run (:mod:`hgo.outputs.integrity`): one line, exit 1."""
+    print(f"error: {err}", file=sys.stderr)
+    return 1
 
 
 _CONDITION = re.compile(r"^(?P<key>[^=!<>]+?)\s*(?P<op>!=|<=|>=|=|<|>)\s*(?P<value>.*)$")
@@ -128,9 +135,13 @@ def runs(argv: list[str]) -> int:
 def compare(a: str, b: str) -> int:
     """Config keys and metrics that differ between two runs, side by side."""
     try:
+        for run in (a, b):
+            check_run(Path(run), only={"run.json"})
         ia, ib = read_run_json(Path(a)), read_run_json(Path(b))
     except BadRunRecord as err:
         return _error(f"--compare: {err}")
+    except Damaged as err:
+        return _damaged(err)
     for section in ("config", "metrics"):
         sa, sb = ia.get(section, {}), ib.get(section, {})
         keys = sorted(set(sa) | set(sb))
@@ -155,10 +166,13 @@ def show(argv: list[str]) -> int:
     run_dir = Path(args.run).resolve()  # outputs/latest is a link
     if not (run_dir / "run.json").exists():
         return _error(f"run: {args.run} has no run.json (not a run directory)")
-    try:
+    try:  # sizes of all its files, hashes of those shown
+        check_run(run_dir, hashed={"run.json", "metrics.csv"})
         info = read_run_json(run_dir)
     except BadRunRecord as err:
         return _error(f"run: {err}")
+    except Damaged as err:
+        return _damaged(err)
     print(f"{run_dir}\nstatus: {info.get('status', '?')}   started "
           f"{info.get('started', '?')}   seconds {info.get('seconds', {})}")
     print(f"hgo {info.get('hgo', '?')} commit {info.get('git_commit', '?')}"
@@ -177,7 +191,7 @@ def show(argv: list[str]) -> int:
 
 
 def export(argv: list[str]) -> int:
-    from hgo.outputs.recording import read_recording
+    from hgo.outputs.recording import atomic_output, read_recording
 
     parser = argparse.ArgumentParser(prog="hgo export", description="A recording's series as "
                                      "a table (index sim_time, one column per series).")
@@ -193,16 +207,21 @@ def export(argv: list[str]) -> int:
     if not out.parent.is_dir():
         return _error(f"--out: folder {out.parent} does not exist")
     try:
+        check_run(rrd.parent, only={rrd.name})
+    except Damaged as err:
+        return _damaged(err)
+    try:
         with warnings.catch_warnings():  # (Rerun's warning about a footer; the line says it)
             warnings.simplefilter("ignore")
             df = read_recording(rrd)
     except ValueError as err:  # not a recording, truncated (RecordingIncomplete)
         return _error(f"source: {one_line(err)}")
-    try:
-        if args.format == "csv":
-            df.to_csv(out)
-        else:
-            df.to_parquet(out)
+    try:  # under <out>.partial until complete: never a truncated file under its name
+        with atomic_output(out) as partial:
+            if args.format == "csv":
+                df.to_csv(partial)
+            else:
+                df.to_parquet(partial)
     except OSError as err:
         return _error(f"--out: {one_line(err)}")
     print(f"wrote {out} ({len(df)} rows x {df.shape[1]} series)")

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import shlex
 import sys
 from pathlib import Path
 from urllib.parse import quote
@@ -65,6 +66,18 @@ def is_recording_file(path: Path) -> bool:
     return head in (RRD_MAGIC, b"")
 
 
+def _damage(path: Path) -> str:
+    """The one line of a recording whose size differs from the one its run recorded
+    (:mod:`hgo.outputs.integrity`; the viewer reads it, not hgo: no hash), else ""."""
+    from hgo.outputs.integrity import Damaged, check_run
+
+    try:
+        check_run(path.parent, hashed=False, only={path.name})
+    except Damaged as err:
+        return str(err)
+    return ""
+
+
 def all_recordings(runs: list[Path], skipped: list[str] | None = None) -> list[Path]:
     """The recordings of every RUN, each file once, in the order given; a file that is not
     a Rerun recording is left out when ``skipped`` is given (its one line appended there),
@@ -74,10 +87,14 @@ def all_recordings(runs: list[Path], skipped: list[str] | None = None) -> list[P
         for path in recordings(run):
             if path in files:
                 continue
-            if skipped is None or is_recording_file(path):
+            if skipped is None:
                 files.append(path)
-            else:
+            elif not is_recording_file(path):
                 skipped.append(f"{path}: not a Rerun recording (unreadable or another file)")
+            elif damage := _damage(path):
+                skipped.append(damage)
+            else:
+                files.append(path)
     if not files:
         raise NoRecording("no readable recording among " + ", ".join(map(str, runs)))
     return files
@@ -153,7 +170,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.web:
         print("\n".join(web_instructions(args.web_port, args.grpc_port)))
     if args.print_command:
-        print(" ".join(command))
+        print(shlex.join(command))  # (a path with a space or a quote pastes as one word)
         return 0
     sys.stdout.flush()
     os.execv(command[0], command)  # this process becomes the viewer

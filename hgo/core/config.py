@@ -9,13 +9,16 @@ is enough (the factory's signature then checks the keys).
 
 from __future__ import annotations
 
+import os
+import time
 from dataclasses import dataclass, field
+from datetime import datetime
 from enum import Enum
 from pathlib import Path
 from typing import Any
 
 from hydra.core.config_store import ConfigStore
-from omegaconf import DictConfig, open_dict
+from omegaconf import DictConfig, OmegaConf, open_dict
 
 from hgo.core.registry import paper_modules
 
@@ -181,6 +184,23 @@ def bound_yaml_aliases() -> None:
 
 
 _REGISTERED: list[bool] = []  # (once per process: the ConfigStore is a process singleton)
+_LAST_STAMP: list[str] = []  # the last name run_stamp gave in this process
+
+
+def run_stamp() -> str:
+    """The name of a default run or sweep directory (``${hgo.stamp:}`` in
+    ``conf/config.yaml``): local time to the millisecond and this process's id,
+    ``2026-12-01_14-21-06.123_4567``. Runs started in the same second never share a
+    directory, in one process or several (Hydra's ``${now:}`` to the second did); names
+    sort by time. A config resolves it once (the resolver is cached per config, and Hydra
+    copies that cache to a sweep's jobs); one process never gives the same name twice."""
+    while True:
+        now = datetime.now()
+        stamp = f"{now:%Y-%m-%d_%H-%M-%S}.{now.microsecond // 1000:03d}_{os.getpid()}"
+        if stamp not in _LAST_STAMP:
+            _LAST_STAMP[:] = [stamp]
+            return stamp
+        time.sleep(0.001)
 
 
 def register_configs() -> None:
@@ -190,6 +210,7 @@ def register_configs() -> None:
     bound_yaml_aliases()
     if _REGISTERED:
         return
+    OmegaConf.register_new_resolver("hgo.stamp", run_stamp, use_cache=True, replace=True)
     cs = ConfigStore.instance()
     cs.store(group="schema/plant", name="sp_linear", node=SPLinearPlantConf)
     cs.store(group="schema/observer", name="triangular", node=TriangularHGOConf)

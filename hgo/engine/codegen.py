@@ -14,12 +14,14 @@ one warning saying why.
 from __future__ import annotations
 
 import dis
+import errno
 import functools
 import hashlib
 import importlib.util
 import inspect
 import math
 import os
+import shutil
 import sys
 import tempfile
 import types
@@ -44,25 +46,33 @@ Never ``nnan``/``ninf``: the kernel detects non-finite states."""
 
 def cache_dir() -> Path:
     """Folder of generated kernels: ``$HGO_CACHE_DIR`` or ``~/.cache/hgo/kernels``; a
-    private temporary folder (one warning) when that one cannot be created or written."""
+    private temporary folder (one warning) when that one cannot be created or written, or
+    once a write into it failed (a full disk: :func:`_cache_write`)."""
     root = os.environ.get("HGO_CACHE_DIR") or Path.home() / ".cache" / "hgo" / "kernels"
     path = Path(root)
+    if path in _PRIVATE:
+        return _PRIVATE[path]
     try:
         path.mkdir(parents=True, exist_ok=True)
         if os.access(path, os.W_OK | os.X_OK):
             return path
     except OSError:
         pass
-    return _fallback_dir(path)
+    return _fallback_dir(path, "is not writable")
 
 
-@functools.cache
-def _fallback_dir(wanted: Path) -> Path:
-    path = Path(tempfile.mkdtemp(prefix="hgo-kernels-"))
-    warnings.warn(f"hgo: the kernel cache {wanted} is not writable; compiling into {path} "
-                  "for this process only (set HGO_CACHE_DIR to a writable folder)",
-                  RuntimeWarning, stacklevel=3)
-    return path
+_PRIVATE: dict[Path, Path] = {}  # kernel cache wanted -> the private folder used instead
+# a write into the cache that a private folder can do instead of failing the run
+UNWRITABLE = (errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EPERM)
+
+
+def _fallback_dir(wanted: Path, why: str) -> Path:
+    if wanted not in _PRIVATE:
+        _PRIVATE[wanted] = path = Path(tempfile.mkdtemp(prefix="hgo-kernels-"))
+        warnings.warn(f"hgo: the kernel cache {wanted} {why}; compiling into {path} for "
+                      "this process only (set HGO_CACHE_DIR to a writable folder)",
+                      RuntimeWarning, stacklevel=3)
+    return _PRIVATE[wanted]
 
 
 def _components(system: System) -> list:
@@ -370,21 +380,45 @@ def _integrator_source(method: str) -> str:
     except (OSError, UnicodeDecodeError, ValueError):
         pass
     text = method_source(method)
-    _atomic_write(path, f"# {_digest(text)}\n{text}")
+    _cache_write(path.name, f"# {_digest(text)}\n{text}")
     return text
 
 
 def _atomic_write(path: Path, text: str) -> None:
-    """``text`` into ``path`` through a temporary file and a rename: jobs may race."""
+    """``text`` into ``path`` through a temporary file and a rename: jobs may race. A folder
+    where the entry belongs is removed first; a failed write leaves no temporary file."""
     fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-    with os.fdopen(fd, "w") as fh:
-        fh.write(text)
-    os.replace(tmp, path)
+    try:
+        with os.fdopen(fd, "w") as fh:
+            fh.write(text)
+        if path.is_dir() and not path.is_symlink():
+            shutil.rmtree(path)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def _cache_write(name: str, text: str) -> Path:
+    """``text`` as the cache entry ``name``; where the cache cannot take it (full, read-only
+    since it was checked), in the private folder instead, with one warning."""
+    folder = cache_dir()
+    try:
+        _atomic_write(folder / name, text)
+        return folder / name
+    except OSError as err:
+        if err.errno not in UNWRITABLE:
+            raise
+        why = f"cannot be written ({os.strerror(err.errno)})"
+    folder = _fallback_dir(folder, why)
+    _atomic_write(folder / name, text)
+    return folder / name
 
 
 def _write_once(text: str) -> Path:
     """The cache entry of ``text``, named by its hash; an existing entry is verified (hash of
-    its text) and a corrupted one rewritten, with its numba cache, after one warning."""
+    its text) and a corrupted one (a folder in its place too) rewritten, with its numba
+    cache, after one warning."""
     digest = _digest(text)
     path = cache_dir() / f"hgo_kernel_{digest}.py"
     if path.exists():
@@ -394,11 +428,11 @@ def _write_once(text: str) -> Path:
             intact = False
         if intact:
             return path
-        warnings.warn(f"hgo: kernel-cache entry {path.name} is corrupted (its text does not "
-                      "match its hash); rebuilding it", RuntimeWarning, stacklevel=3)
+        what = "is a folder" if path.is_dir() else "is corrupted (its text does not match its hash)"
+        warnings.warn(f"hgo: kernel-cache entry {path.name} {what}; rebuilding it",
+                      RuntimeWarning, stacklevel=3)
         purge_numba_cache(path)
-    _atomic_write(path, text)
-    return path
+    return _cache_write(path.name, text)
 
 
 def numba_cache_dirs(path: Path) -> list[Path]:
@@ -474,11 +508,37 @@ def compiled_first(fn, path: Path | str):
         if fn not in _COMPILED:
             if not fn.signatures:
                 with entry_lock(Path(path)):
-                    fn.compile(tuple(fn.typeof_pyval(a) for a in args))
+                    compile_unsaved(fn, tuple(fn.typeof_pyval(a) for a in args))
             _COMPILED.add(fn)
         return fn(*args)
 
     return call
+
+
+def compile_unsaved(fn, signature: tuple) -> None:
+    """``fn.compile(signature)``, kept for this process when numba cannot save it into its
+    cache (a full disk): numba adds a function's compiled code before it saves it, so each
+    retry goes past one more function (the kernel or a helper it calls) whose save failed;
+    one warning."""
+    warned = False
+    for _ in range(MAX_UNSAVED):
+        try:
+            fn.compile(signature)
+            return
+        except OSError as err:
+            if err.errno not in UNWRITABLE:
+                raise
+            if not warned:
+                warnings.warn(f"hgo: numba cannot save the compiled kernel into its cache "
+                              f"({os.strerror(err.errno)}); it is compiled for this process "
+                              "only", RuntimeWarning, stacklevel=4)
+                warned = True
+            if fn.signatures:  # compiled; only the save failed
+                return
+    fn.compile(signature)
+
+
+MAX_UNSAVED = 64  # functions (the kernel and its helpers) whose save may fail in one compile
 
 
 # kernel functions compiled or loaded in this process (their later calls go straight in:

@@ -36,6 +36,7 @@ from datetime import datetime
 from pathlib import Path
 
 from hgo.core.registry import PAPERS_PACKAGE, PaperFigure, paper_names
+from hgo.outputs.integrity import Damaged, check_file, manifest
 
 ROOT = Path(__file__).resolve().parents[2]
 VECTOR = "pdf"  # every figure also as a vector file (figures.vector)
@@ -88,6 +89,7 @@ def run_job(overrides: tuple[str, ...], job_dir: str, key: str, cfg=None) -> dic
     the composed config of ``overrides`` when the caller has it (else composed here)."""
     import yaml
 
+    from hgo.outputs.recording import atomic_output
     from hgo.running.ensemble_runner import is_ensemble, run_ensemble
     from hgo.running.in_memory import compose_cached
     from hgo.running.runner import job_config_yaml, run
@@ -105,8 +107,10 @@ def run_job(overrides: tuple[str, ...], job_dir: str, key: str, cfg=None) -> dic
     except Exception as err:  # the report lists it; the other jobs go on
         status = f"failed: {err}"
     info = {"key": key, "overrides": list(overrides), "status": status,
-            "seconds": time.perf_counter() - t0}
-    (out / "reproduce.json").write_text(json.dumps(info, indent=1))
+            "seconds": time.perf_counter() - t0,
+            "files": {name: [size, digest] for name, (size, digest) in manifest(out).items()}}
+    with atomic_output(out / "reproduce.json") as partial:
+        partial.write_text(json.dumps(info, indent=1))
     return info
 
 
@@ -129,7 +133,10 @@ def run_claims(paper: str, path: str) -> dict:
                      "error": traceback.format_exc(limit=3)}
         entry["seconds"] = time.perf_counter() - t0
         results[c.id] = entry
-    Path(path).write_text(json.dumps(results, indent=1))
+    from hgo.outputs.recording import atomic_output
+
+    with atomic_output(Path(path)) as partial:  # a killed worker leaves no truncated JSON
+        partial.write_text(json.dumps(results, indent=1))
     forget_runs()  # (the runs of one paper's claims; the next task's differ)
     return results
 
@@ -146,8 +153,29 @@ class Job:
     key: str
 
     def done(self) -> bool:
-        info = self.dir / "reproduce.json"
-        return info.exists() and json.loads(info.read_text()).get("key") == self.key
+        """Whether the job's directory holds its finished run: ``reproduce.json`` readable,
+        of this key, and every file with the size and sha256 it recorded (an unreadable
+        or truncated cache file, a damaged output: not done, run again)."""
+        info = read_json(self.dir / "reproduce.json")
+        if not isinstance(info, dict) or info.get("key") != self.key:
+            return False
+        try:
+            for name, (size, digest) in dict(info["files"]).items():
+                check_file(self.dir / name, int(size), str(digest))
+        except Damaged as err:
+            print(f"reproduce: {err}; running the job again", file=sys.stderr)
+            return False
+        except (KeyError, TypeError, ValueError):  # no (readable) list of files
+            return False
+        return True
+
+
+def read_json(path: Path) -> object:
+    """``path``'s JSON, or None when it is missing or unreadable (truncated, not JSON)."""
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
 
 
 def paper_figures(paper: str) -> list[PaperFigure]:
@@ -219,7 +247,8 @@ def reproduce(papers: list[str], jobs: int, root: Path) -> Path:
     claims_dir = root / "claims"
     claims_dir.mkdir(parents=True, exist_ok=True)
     claim_files = {p: claims_dir / f"{p}-{fingerprint}.json" for p in papers}
-    todo_claims = [p for p in papers if all_claims([p]) and not claim_files[p].exists()]
+    todo_claims = [p for p in papers if all_claims([p])
+                   and not isinstance(read_json(claim_files[p]), dict)]
     times = TaskTimes.load()
     ctx = multiprocessing.get_context("fork")
     with ProcessPoolExecutor(max_workers=max(1, jobs), mp_context=ctx) as pool:
@@ -355,7 +384,7 @@ def _combine(plan: list[Job]) -> None:
         seen.add(sweep)
         stamp = sweep / "combined.json"
         keys = sorted(j.key for j in plan if j.dir.parent == sweep)
-        if stamp.exists() and json.loads(stamp.read_text()) == keys:
+        if read_json(stamp) == keys:
             continue
         try:
             from hgo.outputs.figures import also_saved_as

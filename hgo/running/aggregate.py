@@ -45,17 +45,12 @@ import yaml
 from hydra.experimental.callback import Callback
 from hydra.types import RunMode
 
+from hgo.running.run_dirs import FAILED, sweep_jobs
+
 
 def _job_dirs(sweep: Path) -> list[Path]:
-    jobs = [p for p in sweep.iterdir() if p.is_dir() and (p / ".hydra").is_dir()]
-    jobs += [p for p in sweep.iterdir() if p.is_dir() and p.name.startswith("job")
-             and p not in jobs]
-
-    def key(p: Path):
-        digits = "".join(c for c in p.name if c.isdigit())
-        return (int(digits) if digits else math.inf, p.name)
-
-    return sorted(set(jobs), key=key)
+    """The jobs of the sweep that ran last in ``sweep`` (:func:`sweep_jobs`)."""
+    return sweep_jobs(sweep)
 
 
 def _overrides(job: Path) -> list[str]:
@@ -356,7 +351,6 @@ class SweepSummary(Callback):
             exit_with(code)
 
 
-FAILED = ".hgo_failed"  # in a sweep directory: <job name> -> "<exit code>\n<one line>"
 
 
 def record_failure(sweep: Path, job: str, code: int, line: str) -> None:

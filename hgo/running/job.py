@@ -26,11 +26,12 @@ from omegaconf import DictConfig, OmegaConf
 from hgo.core.errors import PlainError, is_config_error, one_line
 from hgo.core.memory import release_freed_memory, skip_exit_collection
 from hgo.core.validate import check_run_name
+from hgo.outputs.integrity import DONE, Damaged, check_run, manifest, manifest_text, read_marker
+from hgo.running.run_dirs import LOCK, RunDirBusy, guard_sweep_dir, lock_run_dir, unlock_run_dir
 
 log = logging.getLogger(__name__)
 EXIT_CONFIG, EXIT_FAILED, EXIT_INTERRUPTED = 2, 1, 130
 _EXIT_CODES: list[int] = []  # of the jobs of this process that did not succeed
-LOCK = ".hgo_lock"  # held (flock) in a run directory while a run writes it
 _HYDRA_FILES = {".hydra", LOCK}
 
 
@@ -45,8 +46,11 @@ _LAST_ERROR: list[str] = []  # the one line of this process's last failed job
 def report(err: BaseException, code: int) -> None:
     """Write ``error: <one line>`` to stderr and remember the job's exit code."""
     line = one_line(err)
-    sys.stderr.write(f"error: {line}\n")
-    sys.stderr.flush()
+    try:
+        sys.stderr.write(f"error: {line}\n")
+        sys.stderr.flush()
+    except OSError:  # a closed terminal (SIGHUP): run.json holds the status
+        pass
     _EXIT_CODES.append(code)
     _LAST_ERROR[:] = [line]
 
@@ -85,9 +89,6 @@ def check_config(cfg: DictConfig) -> None:
         build(cfg)
 
 
-DONE = ".hgo_done"  # written last into a run directory: the hash of the job's config
-
-
 def config_hash(cfg: DictConfig) -> str:
     """Hash of the composed job config (without Hydra's node and ``resume``), resolved."""
     from hgo.running.runner import job_config_yaml
@@ -98,77 +99,46 @@ def config_hash(cfg: DictConfig) -> str:
 
 def is_complete(cfg: DictConfig, out_dir: str | Path) -> bool:
     """Whether ``out_dir`` holds the complete outputs of a successful run of ``cfg``: the
-    marker names this config's hash and every file the run wrote is still there."""
-    out_dir = Path(out_dir)
-    try:
-        digest, *files = (out_dir / DONE).read_text().split("\n")
-    except OSError:
+    marker names this config's hash and every file the run wrote still has its recorded
+    size and sha256 (:mod:`hgo.outputs.integrity`). A damaged file is one warning line
+    naming it; the job then runs again."""
+    marker = read_marker(Path(out_dir))
+    if marker is None or marker[1] is None or marker[0] != config_hash(cfg):
         return False
-    return digest == config_hash(cfg) and all((out_dir / f).is_file() for f in files if f)
+    try:
+        check_run(Path(out_dir))
+    except Damaged as err:
+        log.warning("resume: %s; running the job again", err)
+        return False
+    return True
 
 
 def mark_complete(cfg: DictConfig, out_dir: str | Path) -> None:
-    """Record that ``out_dir`` holds the complete outputs of ``cfg`` (the config's hash and
-    the files written, not Hydra's); atomic, written last."""
+    """Record that ``out_dir`` holds the complete outputs of ``cfg``: the config's hash and
+    the size and sha256 of each file written (not Hydra's); atomic, written last."""
     from hgo.outputs.recording import atomic_output
 
     out_dir = Path(out_dir)
-    files = sorted(p.name for p in out_dir.iterdir() if p.is_file() and p.suffix != ".log"
-                   and not p.name.startswith("."))
     with atomic_output(out_dir / DONE) as partial:
-        partial.write_text("\n".join([config_hash(cfg), *files]) + "\n")
-
-
-class RunDirBusy(PlainError, OSError):
-    """Another run is writing the run directory."""
-
-
-_LOCKS: dict[Path, int] = {}  # run directory -> the descriptor holding its lock
-
-
-def lock_run_dir(out_dir: str | Path) -> None:
-    """Hold the lock of ``out_dir`` (created if needed) for this process, or raise
-    :class:`RunDirBusy` at once when another process holds it: two runs into one
-    ``hydra.run.dir`` left a mix of both marked complete. The lock goes with the process
-    (``flock``): a killed run leaves none behind. Idempotent within a process."""
-    import fcntl
-
-    path = Path(out_dir).resolve()
-    if path in _LOCKS:
-        return
-    path.mkdir(parents=True, exist_ok=True)
-    fd = os.open(path / LOCK, os.O_RDWR | os.O_CREAT, 0o644)
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except BlockingIOError:
-        holder = os.pread(fd, 32, 0).decode(errors="replace").strip() or "?"
-        os.close(fd)
-        raise RunDirBusy(f"{path} is being written by another run (pid {holder}); give "
-                         "this run another hydra.run.dir or wait for that one") from None
-    os.ftruncate(fd, 0)
-    os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
-    _LOCKS[path] = fd
-
-
-def unlock_run_dir(out_dir: str | Path) -> None:
-    fd = _LOCKS.pop(Path(out_dir).resolve(), None)
-    if fd is not None:
-        os.close(fd)
+        partial.write_text(manifest_text(config_hash(cfg), manifest(out_dir)))
 
 
 class RunGuard(Callback):
     """Hydra callback (``conf/config.yaml``): before Hydra writes anything, ``run_name``
-    must be a plain name (``run_name=..`` wrote outside ``outputs/``) and a single run's
+    must be a plain name (``run_name=..`` wrote outside ``outputs/``), a single run's
     directory must not be in use by another run (:func:`lock_run_dir`; Hydra would
-    overwrite that run's ``.hydra/`` first). Hydra turns a callback's exception into a
-    warning and goes on, so a refusal here is the one line and ``SystemExit``."""
+    overwrite that run's ``.hydra/`` first), and a sweep's directory neither in use nor
+    holding another sweep (:func:`hgo.running.run_dirs.guard_sweep_dir`). Hydra turns a
+    callback's exception into a warning and goes on, so a refusal here is the one line and
+    ``SystemExit``."""
 
     def on_run_start(self, config: DictConfig, **kwargs) -> None:
         self._refuse_unless(lambda: (check_run_name(config.get("run_name", "run")),
                                      lock_run_dir(config.hydra.run.dir)))
 
     def on_multirun_start(self, config: DictConfig, **kwargs) -> None:
-        self._refuse_unless(lambda: check_run_name(config.get("run_name", "run")))
+        self._refuse_unless(lambda: (check_run_name(config.get("run_name", "run")),
+                                     guard_sweep_dir(config)))
 
     @staticmethod
     def _refuse_unless(check) -> None:
@@ -180,13 +150,15 @@ class RunGuard(Callback):
                 from None
 
 
-def run_job(cfg: DictConfig, out_dir: str | Path, figures_aside: bool = False) -> int:
+def run_job(cfg: DictConfig, out_dir: str | Path, figures_aside: bool = False,
+            complete: bool | None = None) -> int:
     """Run ``cfg`` into ``out_dir``; returns the exit code (0: ok), errors reported as one
     line (see module doc). Ctrl-C ends the process (exit 130) after the one line: a sweep
     stops there; the interrupted job keeps its outputs (``*.partial`` if mid-write).
 
     ``resume=true``: a job whose directory already holds the complete outputs of the same
-    composed config (:func:`is_complete`) is skipped; any other is run (again).
+    composed config (:func:`is_complete`; ``complete``: the caller's answer, when it asked
+    already) is skipped; any other is run (again).
     ``figures_aside``: a single run draws its figures in a forked process
     (:mod:`hgo.running.figure_worker`); for the one run of a process."""
     from hgo.running.ensemble_runner import is_ensemble, run_ensemble
@@ -200,7 +172,8 @@ def run_job(cfg: DictConfig, out_dir: str | Path, figures_aside: bool = False) -
     except RunDirBusy as err:
         report(err, EXIT_FAILED)
         return EXIT_FAILED
-    if cfg.get("resume", False) and is_complete(cfg, out_dir):
+    if cfg.get("resume", False) and (is_complete(cfg, out_dir) if complete is None
+                                     else complete):
         log.info("resume: %s already holds this job's complete outputs; skipped", out_dir)
         unlock_run_dir(out_dir)
         return 0
@@ -216,9 +189,8 @@ def run_job(cfg: DictConfig, out_dir: str | Path, figures_aside: bool = False) -
     except KeyboardInterrupt as err:
         if full_error():
             raise
-        report(err if str(err) else KeyboardInterrupt("interrupted (Ctrl-C) while writing; "
-                                                      f"incomplete files in {out_dir} end in "
-                                                      ".partial"), EXIT_INTERRUPTED)
+        report(PlainError(str(err) or "interrupted while writing; incomplete files in "
+                          f"{out_dir} end in .partial"), EXIT_INTERRUPTED)
         raise SystemExit(EXIT_INTERRUPTED) from None
     except SimulationFailed as err:
         if full_error():

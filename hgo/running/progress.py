@@ -42,6 +42,7 @@ class _CompileBar(Listener):
 
     def __init__(self, method: str, what: str = "") -> None:
         self.method, self.what, self.depth, self.seconds = method, what, 0, 0.0
+        self.interrupted = False  # a compile ended by Ctrl-C (KeyboardInterrupt)
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._said = False
@@ -62,6 +63,8 @@ class _CompileBar(Listener):
 
     def on_end(self, event) -> None:
         self.depth -= 1
+        kind = (getattr(event, "_exc_details", None) or (None,))[0]  # (numba keeps it private)
+        self.interrupted |= isinstance(kind, type) and issubclass(kind, KeyboardInterrupt)
         if self.depth == 0:
             self.seconds += time.perf_counter() - self._t0
             self._stop.set()

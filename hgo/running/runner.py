@@ -17,7 +17,8 @@ import math
 import re
 import time
 import uuid
-from collections.abc import Mapping
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from datetime import datetime
 from pathlib import Path
@@ -33,6 +34,7 @@ from hgo.core.components import Controller, Observer, Plant
 from hgo.core.errors import ConfigError
 from hgo.core.validate import check_cost as _check_sizes
 from hgo.core.validate import check_values
+from hgo.engine.interrupt import LAST_WORDS
 from hgo.engine.jit import run_seconds
 from hgo.engine.simulate import INTERRUPTED, SolverSettings, Trajectory, check_split, simulate
 from hgo.engine.system import System
@@ -380,19 +382,59 @@ class MemoryRun:
 
 def simulate_config(cfg: DictConfig) -> MemoryRun:
     """Build, simulate, post-process and tabulate the metrics of a composed config."""
-    exp = build(cfg)
+    with interrupted_while("building the experiment"):
+        exp = build(cfg)
     log.info("integrating t = 0 .. %g s (%s)", exp.solver.t_end, exp.solver.method)
     what = (f"the kernel of plant {exp.system.plant.name} with observers "
             + ", ".join(o.name for o in exp.system.observers))
-    with run_seconds() as seconds, compile_progress(exp.solver.method, what):
-        traj = run_experiment(exp)
+    with run_seconds() as seconds, compile_progress(exp.solver.method, what) as compiling:
+        with interrupted_while(lambda: "compiling the kernel (numba)" if compiling.interrupted
+                               else "integrating"):
+            traj = run_experiment(exp)
     t0 = time.perf_counter()
-    post = postprocess(cfg, exp, traj) if traj.ok else PostOutput()
+    with interrupted_while("post-processing"):
+        post = postprocess(cfg, exp, traj) if traj.ok else PostOutput()
     table = metrics_table(exp.system, traj.acc, traj.status, traj.t_stop, post.bounds,
                           post.rows, vacuous_factor(cfg))
     table.insert(0, "run", cfg.get("run_name", "run"))
     return MemoryRun(exp, traj, post, table, seconds["simulate"], seconds["compile"],
                      time.perf_counter() - t0)
+
+
+@contextmanager
+def interrupted_while(phase: str | Callable[[], str]) -> Iterator[None]:
+    """Ctrl-C (or SIGTERM, SIGHUP) inside the block, before anything is written: a
+    :class:`RunInterrupted` naming ``phase`` (a callable: asked when it happens)."""
+    try:
+        yield
+    except KeyboardInterrupt as err:
+        if isinstance(err, RunInterrupted):
+            raise
+        name = phase() if callable(phase) else phase
+        raise RunInterrupted(f"interrupted while {name}; nothing was written") from None
+
+
+@contextmanager
+def kept_if_interrupted(cfg: DictConfig, result: RunResult, started: datetime, phase: str,
+                        written: str) -> Iterator[None]:
+    """Ctrl-C inside the block, after the simulation: ``metrics.csv`` (unless written) and
+    ``run.json`` still written, the run marked interrupted while ``phase``; then a
+    :class:`RunInterrupted` naming the phase and what was kept."""
+    try:
+        yield
+    except KeyboardInterrupt as err:
+        out_dir, traj = result.out_dir, result.trajectory
+        if not (out_dir / "metrics.csv").exists():
+            with atomic_output(out_dir / "metrics.csv") as partial:
+                result.metrics.to_csv(partial, index=False)
+        done = ("the simulation had finished" if traj.ok else
+                f"the simulation had {status_word(traj.status)} at t = {traj.t_stop:g} s")
+        track(cfg, out_dir, started, f"interrupted while {phase} ({done}; {written} "
+              "complete)", result.timings, result.metrics)
+        stopped = RunInterrupted(f"interrupted while {phase}; {done}: {written} and run.json "
+                                 f"are in {out_dir}")
+        stopped.result = result
+        raise stopped from err if isinstance(err, RunInterrupted) else None
 
 
 def status_text(traj: Trajectory) -> str:
@@ -412,7 +454,12 @@ def run(cfg: DictConfig, out_dir: str | Path, figures: FigureWorker | None = Non
     there while the recording is written."""
     out_dir = Path(out_dir)
     started = datetime.now()
-    mem = simulate_config(cfg)
+    last_words = functools.partial(_busy_kernel_stopped, cfg, out_dir, started)
+    LAST_WORDS.append(last_words)
+    try:
+        mem = simulate_config(cfg)
+    finally:
+        LAST_WORDS.remove(last_words)
     out_dir.mkdir(parents=True, exist_ok=True)
     exp, traj, table = mem.experiment, mem.trajectory, mem.metrics
     series = styled(exp.system, signals(exp.system, traj)) + mem.post.series
@@ -422,12 +469,14 @@ def run(cfg: DictConfig, out_dir: str | Path, figures: FigureWorker | None = Non
     t1 = time.perf_counter()
     recording = cfg.get("recording")
     # (the blueprint imports Rerun, ~0.4 s: not for a run that writes no recording)
-    layout = None if recording_mode(recording) == "off" else blueprint(exp.system, series)
-    write_run_recording(recording, out_dir / "recording.rrd", traj.t, series,
-                        recording_id=recording_id(out_dir), blueprint=layout,
-                        recording_name=recording_name(cfg, out_dir.name),
-                        text={"/run/status": status_text(traj),
-                              "/run/config": job_config_yaml(cfg)})
+    with kept_if_interrupted(cfg, result, started, "writing recording.rrd", "metrics.csv"):
+        layout = None if recording_mode(recording) == "off" else blueprint(exp.system,
+                                                                            series)
+        write_run_recording(recording, out_dir / "recording.rrd", traj.t, series,
+                            recording_id=recording_id(out_dir), blueprint=layout,
+                            recording_name=recording_name(cfg, out_dir.name),
+                            text={"/run/status": status_text(traj),
+                                  "/run/config": job_config_yaml(cfg)})
     result.timings["write"] = t_write = time.perf_counter() - t1
     log.info("simulated in %.3f s (compiling %.3f s), post-processed in %.3f s; recording of "
              "%d samples x %d columns written in %.3f s", mem.simulate_seconds,
@@ -445,15 +494,25 @@ def run(cfg: DictConfig, out_dir: str | Path, figures: FigureWorker | None = Non
         err.result = result  # what was written, for hgo.api.run
         raise err
     t2 = time.perf_counter()
-    if figures is not None:
-        figures.collect()
-    else:
-        draw_figures(cfg, result)
+    with kept_if_interrupted(cfg, result, started, "drawing the figures",
+                             "metrics.csv, recording.rrd"):
+        if figures is not None:
+            figures.collect()
+        else:
+            draw_figures(cfg, result)
     # the drawing, or with a figure process (it drew while the recording was written) the
     # time this run still waited for it
     result.timings["figures"] = time.perf_counter() - t2
     track(cfg, out_dir, started, "ok", result.timings, table)
     return result
+
+
+def _busy_kernel_stopped(cfg: DictConfig, out_dir: Path, started: datetime) -> None:
+    """``run.json`` of a run whose kernel ignored Ctrl-C (user code looping) and is ended
+    by a second one (:mod:`hgo.engine.interrupt`): no trajectory, the status says why."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    track(cfg, out_dir, started, "interrupted while integrating: the kernel was busy (user "
+          "code that does not return) and was stopped without its trajectory", {}, None)
 
 
 def track(cfg: DictConfig, out_dir: Path, started: datetime, status: str,
