@@ -1,0 +1,149 @@
+"""Code only from where the user put it (issue 40, item 5): every ``_target_`` passes an
+allowlist before anything of it is imported or called (:mod:`hgo.core.targets`);
+``hydra.callbacks`` only from hgo and Hydra plugins; an option name with ``..`` is refused.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import hgo
+from hgo.core import targets
+from hgo.core.components import Plant
+from hgo.core.errors import ConfigError, one_line
+from hgo.running.job import check_config
+from hgo.running.runner import _instantiate
+
+ROOT = Path(__file__).resolve().parents[1]
+SP = "experiment=sp_fig1"
+
+
+@pytest.fixture
+def victim(tmp_path: Path) -> Path:
+    """A file a hostile config tries to empty."""
+    path = tmp_path / "victim.txt"
+    path.write_text("precious\n")
+    return path
+
+
+@pytest.mark.parametrize("make", [
+    lambda tmp, victim: ["plant._target_=distutils.spawn.spawn",
+                         f"+plant.cmd=[touch,{tmp / 'spawned'}]"],
+    lambda tmp, victim: ["plant._target_=builtins.open", f"+plant.file={victim}",
+                         "+plant.mode=w"],
+    lambda tmp, victim: ["plant._target_=shutil.copyfile", "+plant.src=/dev/null",
+                         f"+plant.dst={victim}"],
+], ids=["distutils.spawn.spawn", "builtins.open", "shutil.copyfile"])
+def test_a_hostile_plant_target_is_refused_before_any_call(make, tmp_path, victim):
+    overrides = make(tmp_path, victim)
+    cfg = hgo.compose([SP, *overrides])
+    with pytest.raises(ConfigError) as err:
+        check_config(cfg)
+    target = overrides[0].partition("=")[2]
+    assert one_line(err.value).startswith(f"plant._target_: {target} is not allowed")
+    assert victim.read_text() == "precious\n" and not (tmp_path / "spawned").exists()
+
+
+def test_the_fast_path_refuses_before_the_call(victim):
+    """An ensemble member's node (built without Hydra's instantiate) is checked too."""
+    node = {"_target_": "shutil.copyfile", "src": "/dev/null", "dst": str(victim)}
+    with pytest.raises(ConfigError, match="plant._target_: shutil.copyfile is not allowed"):
+        _instantiate(node, "plant", Plant)
+    assert victim.read_text() == "precious\n"
+
+
+@pytest.mark.parametrize("path", [
+    "os.system", "subprocess.run", "builtins.exec", "hgo.running.job.shutil.rmtree",
+    "hgo.core.validate.os.system", "numpy.save", "numpy.load", "numpy.ctypeslib.load_library",
+    "pickle.loads", "importlib.import_module",
+])
+def test_refused(path):
+    with pytest.raises(ConfigError, match="is not allowed"):
+        targets.locate(path, "plant._target_")
+
+
+@pytest.mark.parametrize("path", [
+    "hgo.plants.sp_linear.sp_linear_plant", "numpy.linalg.solve", "numpy.zeros",
+    "scipy.linalg.expm", "math.sin", "test_targets.make_nothing",
+])
+def test_allowed(path):
+    assert callable(targets.locate(path, "plant._target_"))
+
+
+def make_nothing() -> None:
+    """A callable of a module under the working directory (the tests folder)."""
+
+
+def test_the_environment_widens_the_rule(monkeypatch):
+    with pytest.raises(ConfigError, match="is not allowed"):
+        targets.locate("json.dumps", "plant._target_")
+    monkeypatch.setenv(targets.ENV, "json")
+    assert targets.locate("json.dumps", "plant._target_").__name__ == "dumps"
+
+
+def test_a_module_of_an_environment_inside_the_project_is_not_the_users(tmp_path, monkeypatch):
+    """A virtual environment under the working directory: its packages are installed
+    code, not the user's (``site-packages`` in the path)."""
+    pkg = tmp_path / ".venv" / "lib" / "site-packages" / "hostile_pkg"
+    pkg.mkdir(parents=True)
+    (pkg / "__init__.py").write_text("def run():\n    raise SystemExit('imported')\n")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.syspath_prepend(str(pkg.parent))
+    with pytest.raises(ConfigError, match="hostile_pkg.run is not allowed"):
+        targets.locate("hostile_pkg.run", "plant._target_")
+    assert "hostile_pkg" not in sys.modules
+
+
+def test_a_figure_target_is_refused_before_its_module_is_read():
+    cfg = hgo.compose([SP, "+figures.x._target_=distutils.spawn.spawn"])
+    with pytest.raises(ConfigError, match=r"^figures\.x\._target_: distutils\.spawn\.spawn is "
+                       "not allowed"):
+        check_config(cfg)
+
+
+def test_a_hostile_callback_is_refused_when_the_config_is_composed(tmp_path):
+    with pytest.raises(hgo.HgoError, match=r"^hydra\.callbacks\.x\._target_: "
+                       r"distutils\.spawn\.spawn is not allowed"):
+        hgo.compose([SP, "+hydra.callbacks.x._target_=distutils.spawn.spawn",
+                     f"+hydra.callbacks.x.cmd=[touch,{tmp_path / 'spawned'}]"])
+    with pytest.raises(hgo.HgoError, match="builtins.open is not allowed"):
+        hgo.compose([SP, "+hydra.callbacks.x._target_=builtins.open",
+                     f"+hydra.callbacks.x.file={tmp_path / 'x'}"])
+
+
+def test_a_logging_factory_outside_logging_is_refused():
+    hydra_node = {"job_logging": {"handlers": {"x": {"()": "os.system", "command": "true"}}}}
+    with pytest.raises(ConfigError, match=r"hydra\.job_logging\.handlers\.x\.\(\): os\.system"):
+        targets.check_hydra_node(hydra_node)
+    targets.check_hydra_node({"job_logging": {"handlers": {"console": {
+        "class": "logging.StreamHandler"}}}})
+
+
+def test_an_option_with_dot_dot_is_refused(tmp_path):
+    outside = tmp_path / "outside.yaml"
+    outside.write_text("# @package _global_\nrun_name: outside\n")
+    rel = os.path.relpath(outside.with_suffix(""), ROOT / "conf" / "experiment")
+    with pytest.raises(hgo.HgoError, match=r"option '.*' has '\.\.' in it"):
+        hgo.compose([f"experiment={rel}"])
+
+
+def test_a_sweep_never_runs_a_hostile_callback(tmp_path):
+    """The case of the issue: ``distutils.spawn.spawn`` as a ``hydra.callbacks`` entry of a
+    sweep ran its command and the sweep reported ok."""
+    marker = tmp_path / "spawned"
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    env.pop("HYDRA_FULL_ERROR", None)
+    done = subprocess.run(
+        [sys.executable, "-m", "hgo.cli", "run", "-m", SP, "solver.t_end=1",
+         "+hydra.callbacks.x._target_=distutils.spawn.spawn",
+         f"+hydra.callbacks.x.cmd=[touch,{marker}]", f"hydra.sweep.dir={tmp_path / 'sweep'}"],
+        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.strip().splitlines()[-1].startswith(
+        "error: hydra.callbacks.x._target_: distutils.spawn.spawn is not allowed")
+    assert not marker.exists() and "Traceback" not in done.stderr
