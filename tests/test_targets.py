@@ -116,6 +116,12 @@ def test_a_hostile_callback_is_refused_when_the_config_is_composed(tmp_path):
                      f"+hydra.callbacks.x.file={tmp_path / 'x'}"])
 
 
+def test_a_config_cannot_widen_its_own_rights():
+    with pytest.raises(hgo.HgoError, match=r"^hydra\.job\.env_set\.HGO_ALLOW_TARGETS: a config "
+                       "cannot widen"):
+        hgo.compose([SP, "+hydra.job.env_set.HGO_ALLOW_TARGETS=os"])
+
+
 def test_a_logging_factory_outside_logging_is_refused():
     hydra_node = {"job_logging": {"handlers": {"x": {"()": "os.system", "command": "true"}}}}
     with pytest.raises(ConfigError, match=r"hydra\.job_logging\.handlers\.x\.\(\): os\.system"):

@@ -81,12 +81,14 @@ def _hydra_config_dirs() -> list[Path]:
 
         if not HydraConfig.initialized():
             return []
-        sources = HydraConfig.get().runtime.config_sources
+        runtime = HydraConfig.get().runtime
     except Exception:  # noqa: BLE001 - no Hydra run: no config dir from it
         return []
-    return [Path(s.path).resolve() for s in sources
-            if s.schema == "file" and s.provider in ("command-line",
-                                                     "hydra.searchpath in command-line")]
+    # (and the directory hgo was started in, where hydra.job.chdir=true moved away from it)
+    return [Path(runtime.cwd).resolve()] + [
+        Path(s.path).resolve() for s in runtime.config_sources
+        if s.schema == "file" and s.provider in ("command-line",
+                                                 "hydra.searchpath in command-line")]
 
 
 def trusted_dirs() -> tuple[Path, ...]:
@@ -128,6 +130,14 @@ def _module_files(name: str) -> list[str | None]:
     if spec is None:
         return [None]
     return [spec.origin] + list(spec.submodule_search_locations or [])
+
+
+def _exists(name: str) -> bool:
+    """Whether top-level module ``name`` can be found (without running it)."""
+    try:
+        return name in sys.modules or importlib.util.find_spec(name) is not None
+    except (ImportError, ValueError):
+        return False
 
 
 def _user_module(name: str, dirs: tuple[Path, ...]) -> bool:
@@ -172,6 +182,10 @@ def _check_text(path: str, key: str, rule: Rule, dirs: tuple[Path, ...], allowed
     if len(parts) < 2 or not all(p.isidentifier() for p in parts):
         raise ConfigError(key, f"'{path}' is not a dotted path module.callable", allowed)
     if not any(rule(".".join(parts[:i]), dirs) for i in range(1, len(parts))):
+        if not _exists(parts[0]):
+            raise ConfigError(key, f"cannot import {path}: no module named '{parts[0]}' (a "
+                              "module of your own: put it in the working directory or the "
+                              "--config-dir)")
         raise _refuse(key, path, "not in a module the rule allows", allowed)
     if rule is component_module and _numeric_name(path):
         raise _refuse(key, path, "numpy/scipy file readers and writers are not", allowed)
@@ -202,6 +216,9 @@ def _resolve(path: str, key: str, rule: Rule, dirs: tuple[Path, ...], allowed: s
             if not isinstance(obj, types.ModuleType | type):
                 raise _refuse(key, path, f"{'.'.join(parts[:i])} is not a module or a class",
                               allowed)
+            if not hasattr(obj, parts[i]):
+                raise ConfigError(key, f"cannot find {path}: {'.'.join(parts[:i])} has no "
+                                  f"'{parts[i]}'")
             obj = getattr(obj, parts[i])
         if isinstance(obj, types.ModuleType) and not rule(obj.__name__, dirs):
             raise _refuse(key, path, f"it passes through module {obj.__name__}", allowed)
@@ -221,10 +238,12 @@ def _import(name: str, key: str, path: str) -> types.ModuleType:
     try:
         return importlib.import_module(name)
     except ModuleNotFoundError as err:
+        if err.name == name and "." in name:  # module.attribute: the attribute is missing
+            parent, _, attr = name.rpartition(".")
+            raise ConfigError(key, f"cannot find {path}: {parent} has no '{attr}'") from None
         if err.name and name.startswith(err.name):
-            raise ConfigError(key, f"cannot import {path}: no module named '{err.name}' "
-                              "(a module of your own: put it in the working directory or "
-                              "the --config-dir)") from None
+            raise ConfigError(key, f"cannot import {path}: no module named '{err.name}'") \
+                from None
         raise ConfigError(f"{key} {path}", code_error(err)) from None
     except Exception as err:  # noqa: BLE001 - the user's module failed while importing
         raise ConfigError(f"{key} {path}", code_error(err)) from None
@@ -286,12 +305,25 @@ def _locate(path: str, key: str, rule: Rule, dirs: tuple[Path, ...],
     return _resolve(path, key, rule, dirs, allowed)
 
 
+_FOUND: dict[tuple, object] = {}  # (path, key, context) -> what locate found
+
+
+def _context() -> tuple:
+    """What the rule depends on, cheaply (an ensemble locates once per member). The config
+    dirs only widen it within a process: a target found stays found; one refused is looked
+    at again next time."""
+    return os.getcwd(), os.environ.get(ENV, "")
+
+
 def locate(path: object, key: str) -> object:
     """The callable a component's ``_target_`` names (``key``: its config key), checked
     against the allowlist (module doc) before anything of it is imported or called."""
     if not isinstance(path, str):
         raise ConfigError(key, f"must be a dotted path module.callable, got {path!r}")
-    return _locate(path, key, component_module, trusted_dirs(), user_prefixes())
+    found = (path, key, _context())
+    if found not in _FOUND:
+        _FOUND[found] = _locate(path, key, component_module, trusted_dirs(), user_prefixes())
+    return _FOUND[found]
 
 
 def locate_callback(path: object, key: str) -> object:
@@ -335,7 +367,12 @@ def instantiate(node, key: str, **kwargs):
 
 def check_hydra_node(hydra: Mapping) -> None:
     """``hydra.callbacks`` from hgo and Hydra plugins only; the logging configs' factories
-    from logging, Hydra, hgo or colorlog (``logging.config`` calls them)."""
+    from logging, Hydra, hgo or colorlog (``logging.config`` calls them); no
+    ``hydra.job.env_set`` of :data:`ENV` (a config widening its own rights)."""
+    if ENV in ((hydra.get("job") or {}).get("env_set") or {}):
+        raise ConfigError(f"hydra.job.env_set.{ENV}", "a config cannot widen what its "
+                          "_target_ may name", f"set {ENV} in the environment, or hgo run "
+                          "--allow-targets")
     for name, node in (hydra.get("callbacks") or {}).items():
         if isinstance(node, Mapping) and "_target_" in node:
             locate_callback(node["_target_"], f"hydra.callbacks.{name}._target_")

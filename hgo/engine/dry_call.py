@@ -23,6 +23,7 @@ functions and sizes is checked once a process (an ensemble's members share their
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -108,7 +109,9 @@ def _py(fn: object) -> object:
     return getattr(fn, "py_func", fn)
 
 
+@functools.cache
 def _is_user(fn: object) -> bool:
+    """Whether ``fn`` is a user's (not hgo's) function (cached: checked per member)."""
     module = getattr(_py(fn), "__module__", None) or ""
     return callable(fn) and not (module == "hgo" or module.startswith("hgo."))
 
@@ -118,13 +121,14 @@ def _constants(comp) -> list:
     return [] if spec is None else [v for v in spec.constants.values() if callable(v)]
 
 
-_FUNCTIONS = ((Plant, ("f", "h", "jac_f", "jac_h", "breaks")),
-              (Observer, ("f", "update", "estimate", "stiffness")),
-              (Controller, ("u", "breaks")))
+_FUNCTIONS = {Plant: ("f", "h", "jac_f", "jac_h", "breaks"),
+              Observer: ("f", "update", "estimate", "stiffness"),
+              Controller: ("u", "breaks")}
 
 
 def _functions(comp) -> list:
-    names = next(names for kind, names in _FUNCTIONS if isinstance(comp, kind))
+    names = _FUNCTIONS.get(type(comp)) or next(
+        names for kind, names in _FUNCTIONS.items() if isinstance(comp, kind))
     return [getattr(comp, n, None) for n in names]
 
 

@@ -85,6 +85,8 @@ def _construct(node, group: str, **kwargs):
     (:mod:`hgo.core.targets`) before anything is called."""
     if OmegaConf.is_dict(node):
         node = OmegaConf.to_container(node, resolve=True)
+    if isinstance(node, dict) and kwargs:  # what hgo passes (the built plant) replaces the
+        node = {k: v for k, v in node.items() if k not in kwargs}  # node's (not built)
     if isinstance(node, dict) and not _has_nested_target(
             {k: v for k, v in node.items() if k != "_target_"}) and not any(
             k.startswith("_") and k != "_target_" for k in node):
