@@ -60,7 +60,9 @@ def test_the_fast_path_refuses_before_the_call(victim):
 @pytest.mark.parametrize("path", [
     "os.system", "subprocess.run", "builtins.exec", "hgo.running.job.shutil.rmtree",
     "hgo.core.validate.os.system", "numpy.save", "numpy.load", "numpy.ctypeslib.load_library",
-    "pickle.loads", "importlib.import_module",
+    "pickle.loads", "importlib.import_module", "numpy.f2py.run_main", "numpy.testing.assert_",
+    "numpy.lib.npyio.savetxt", "numpy.ndarray.tofile", "hgo.cli.main", "hgo.cli.allow_targets",
+    "hgo.cli.runs.export", "hgo.engine.codegen._atomic_write", "hgo.api.run",
 ])
 def test_refused(path):
     with pytest.raises(ConfigError, match="is not allowed"):
@@ -114,6 +116,8 @@ def test_a_hostile_callback_is_refused_when_the_config_is_composed(tmp_path):
     with pytest.raises(hgo.HgoError, match="builtins.open is not allowed"):
         hgo.compose([SP, "+hydra.callbacks.x._target_=builtins.open",
                      f"+hydra.callbacks.x.file={tmp_path / 'x'}"])
+    with pytest.raises(hgo.HgoError, match=r"hgo.cli.main is not allowed \(not a hydra Callback"):
+        hgo.compose([SP, "+hydra.callbacks.x._target_=hgo.cli.main"])
 
 
 def test_a_config_cannot_widen_its_own_rights():
@@ -123,9 +127,11 @@ def test_a_config_cannot_widen_its_own_rights():
 
 
 def test_a_logging_factory_outside_logging_is_refused():
-    hydra_node = {"job_logging": {"handlers": {"x": {"()": "os.system", "command": "true"}}}}
-    with pytest.raises(ConfigError, match=r"hydra\.job_logging\.handlers\.x\.\(\): os\.system"):
-        targets.check_hydra_node(hydra_node)
+    for factory in ("os.system", "hydra.utils.instantiate", "logging.config.dictConfig"):
+        hydra_node = {"job_logging": {"handlers": {"x": {"()": factory, "command": "true"}}}}
+        with pytest.raises(ConfigError, match=rf"hydra\.job_logging\.handlers\.x\.\(\): "
+                           rf"{factory} is not allowed"):
+            targets.check_hydra_node(hydra_node)
     targets.check_hydra_node({"job_logging": {"handlers": {"console": {
         "class": "logging.StreamHandler"}}}})
 

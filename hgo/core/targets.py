@@ -4,7 +4,8 @@ A config is data; the functions it names are code. A ``_target_`` (components, n
 post-processors, figures, ensemble reports, nested nodes such as a user's ``phi0``) is
 resolved here, and only when it names
 
-* hgo's own callables (``hgo.*``);
+* hgo's own component, post-processor, figure and report callables (:data:`HGO_MODULES`;
+  not its command line, API or file helpers, nor private names);
 * a module under the working directory or a ``--config-dir`` given on the command line
   (``hgo.compose(config_dir=...)`` in Python): the user's own code, never an installed
   package or the standard library, even where those lie under that folder;
@@ -15,10 +16,10 @@ resolved here, and only when it names
 
 The rule is checked on the text first (nothing outside it is imported), then on each step
 of the resolution (``hgo.running.job.shutil.rmtree`` passes through module ``shutil``: refused)
-and on the module that defines the object found. ``hydra.callbacks`` take hgo's callables and
-installed Hydra plugins only (:data:`CALLBACK_MODULES`); the logging factories of
-``hydra.job_logging``/``hydra.hydra_logging`` (their ``()`` and ``class`` entries) logging's,
-Hydra's and colorlog's (:data:`LOGGING_MODULES`).
+and on the module that defines the object found. ``hydra.callbacks`` take Hydra ``Callback``
+classes of hgo, Hydra and installed Hydra plugins only (:data:`CALLBACK_MODULES`); the
+logging factories of ``hydra.job_logging``/``hydra.hydra_logging`` (their ``()`` and
+``class`` entries) classes of logging and colorlog (:data:`LOGGING_MODULES`).
 """
 
 from __future__ import annotations
@@ -47,11 +48,13 @@ NUMERIC_MODULES = ("math", "cmath", "numpy", "numpy.linalg", "numpy.random", "nu
 #: Names of numpy/scipy callables that read or write files (or print, or run code): refused.
 FILE_NAMES = re.compile(r"save|load|file|txt|memmap|datasource|fromregex|open|write|read|"
                         r"info|lookfor|show|exec|system|compile", re.IGNORECASE)
+#: hgo's packages of callables a config names: components, post-processors, figures,
+#: reports and sweep callbacks (never its command line, API or file helpers: ``hgo.cli.main``
+#: with ``--allow-targets`` would widen the rule, ``hgo.cli.runs.export`` writes any path).
+HGO_MODULES = ("hgo.plants", "hgo.observers", "hgo.controllers", "hgo.noise",
+               "hgo.postprocess", "hgo.papers", "hgo.running.aggregate")
 CALLBACK_MODULES = ("hgo", "hydra_plugins", "hydra.experimental.callbacks")
-LOGGING_MODULES = ("logging", "hydra", "hgo", "colorlog")
-RULE = ("hgo's callables, modules under the working directory or a --config-dir, numpy, "
-        "scipy and math functions, and module prefixes given outside the config: "
-        f"{ENV}=pkg,... or hgo run --allow-targets pkg,...")
+LOGGING_MODULES = ("logging", "colorlog")
 
 _CONFIG_DIRS: list[Path] = []  # --config-dir / hgo.compose(config_dir=...) of this process
 
@@ -141,13 +144,25 @@ def _exists(name: str) -> bool:
 
 
 def _user_module(name: str, dirs: tuple[Path, ...]) -> bool:
+    if name.split(".")[0] == "hgo":  # (a checkout run from its own folder: still hgo's rule)
+        return False
     files = [f for f in _module_files(name.split(".")[0]) if f is not None]
     return bool(files) and all(_is_user_file(f, dirs) for f in files)
 
 
+def _numeric_module(name: str) -> bool:
+    """One of :data:`NUMERIC_MODULES` itself (not numpy.testing, numpy.f2py, ...), or a
+    private module under one (``scipy.linalg._matfuncs`` defines ``expm``)."""
+    if name in NUMERIC_MODULES or name.startswith("numpy.polynomial."):
+        return True
+    return any(name.startswith(m + ".") and all(part.startswith("_") for part in
+                                                name[len(m) + 1:].split("."))
+               for m in NUMERIC_MODULES)
+
+
 def component_module(name: str, dirs: tuple[Path, ...]) -> bool:
     """Whether module ``name`` may hold a component's ``_target_``."""
-    return (_under(name, ("hgo", *NUMERIC_MODULES, *user_prefixes()))
+    return (_under(name, (*HGO_MODULES, *user_prefixes())) or _numeric_module(name)
             or _user_module(name, dirs))
 
 
@@ -173,7 +188,8 @@ def _refuse(key: str, path: str, why: str, allowed: str) -> Refused:
 
 def _numeric_name(path: str) -> bool:
     """A numpy/scipy path naming a file reader/writer (or a printer, a code runner)."""
-    return _under(path, NUMERIC_MODULES) and bool(FILE_NAMES.search(path.rsplit(".", 1)[-1]))
+    return _numeric_module(path.rsplit(".", 1)[0]) and bool(
+        FILE_NAMES.search(path.rsplit(".", 1)[-1]))
 
 
 def _check_text(path: str, key: str, rule: Rule, dirs: tuple[Path, ...], allowed: str) -> None:
@@ -189,6 +205,8 @@ def _check_text(path: str, key: str, rule: Rule, dirs: tuple[Path, ...], allowed
         raise _refuse(key, path, "not in a module the rule allows", allowed)
     if rule is component_module and _numeric_name(path):
         raise _refuse(key, path, "numpy/scipy file readers and writers are not", allowed)
+    if _under(path, ("hgo",)) and any(part.startswith("_") for part in parts):
+        raise _refuse(key, path, "hgo's private names are not", allowed)
 
 
 def _defining_module(obj: object) -> str | None:
@@ -206,6 +224,7 @@ def _resolve(path: str, key: str, rule: Rule, dirs: tuple[Path, ...], allowed: s
     only classes (``module.Class.method``)."""
     parts = path.split(".")
     obj: object = _import(parts[0], key, path)
+    home = parts[0]  # the last module passed through
     for i in range(1, len(parts)):
         name = ".".join(parts[:i + 1])
         if isinstance(obj, types.ModuleType) and not hasattr(obj, parts[i]):
@@ -220,14 +239,16 @@ def _resolve(path: str, key: str, rule: Rule, dirs: tuple[Path, ...], allowed: s
                 raise ConfigError(key, f"cannot find {path}: {'.'.join(parts[:i])} has no "
                                   f"'{parts[i]}'")
             obj = getattr(obj, parts[i])
-        if isinstance(obj, types.ModuleType) and not rule(obj.__name__, dirs):
-            raise _refuse(key, path, f"it passes through module {obj.__name__}", allowed)
+        if isinstance(obj, types.ModuleType):
+            if not rule(obj.__name__, dirs):
+                raise _refuse(key, path, f"it passes through module {obj.__name__}", allowed)
+            home = obj.__name__
     module = _defining_module(obj)
     if module is not None and not rule(module, dirs):
         raise _refuse(key, path, f"it is {module}'s", allowed)
     names = f"{parts[-1]} {getattr(obj, '__name__', '')}"
-    if rule is component_module and _under(module or "", NUMERIC_MODULES) and \
-            FILE_NAMES.search(names):
+    if rule is component_module and (_numeric_module(module or "") or _numeric_module(home)) \
+            and FILE_NAMES.search(names):
         raise _refuse(key, path, "numpy/scipy file readers and writers are not", allowed)
     return obj
 
@@ -291,9 +312,10 @@ def _allowed_text(rule: Rule, dirs: tuple[Path, ...]) -> str:
     if rule is _callback_module:
         return "hgo's callbacks and installed Hydra plugins (hydra_plugins.*)"
     if rule is _logging_module:
-        return "logging, hydra, hgo and colorlog factories"
+        return "classes of logging and colorlog"
     extra = ", ".join(user_prefixes())
-    return (f"hgo.*; modules under {', '.join(str(d) for d in dict.fromkeys(dirs))}; "
+    return (f"hgo's components, post-processors, figures and reports ({', '.join(HGO_MODULES)}); "
+            f"modules under {', '.join(str(d) for d in dict.fromkeys(dirs))}; "
             f"numpy, scipy, math; {ENV}" + (f" = {extra}" if extra else " (unset)"))
 
 
@@ -326,11 +348,17 @@ def locate(path: object, key: str) -> object:
     return _FOUND[found]
 
 
-def locate_callback(path: object, key: str) -> object:
-    """A ``hydra.callbacks`` entry's class: hgo's or a Hydra plugin's."""
+def locate_callback(path: object, key: str) -> type:
+    """A ``hydra.callbacks`` entry's class: a Hydra ``Callback`` of hgo or a Hydra plugin."""
+    from hydra.experimental.callback import Callback
+
     if not isinstance(path, str):
         raise ConfigError(key, f"must be a dotted path, got {path!r}")
-    return _locate(path, key, _callback_module, (), ())
+    found = _locate(path, key, _callback_module, (), ())
+    if not (isinstance(found, type) and issubclass(found, Callback)):
+        raise _refuse(key, path, "not a hydra Callback class", _allowed_text(
+            _callback_module, ()))
+    return found
 
 
 def targets(node: object, key: str = "") -> Iterable[tuple[str, object]]:
@@ -380,7 +408,8 @@ def check_hydra_node(hydra: Mapping) -> None:
         for key, value in _factories(hydra.get(group) or {}, f"hydra.{group}"):
             if not isinstance(value, str):
                 raise ConfigError(key, f"must be a dotted path, got {value!r}")
-            _locate(value, key, _logging_module, (), ())
+            if not isinstance(_locate(value, key, _logging_module, (), ()), type):
+                raise _refuse(key, value, "not a class", _allowed_text(_logging_module, ()))
 
 
 def _factories(node: object, key: str) -> Iterable[tuple[str, object]]:
