@@ -108,16 +108,19 @@ def test_a_figure_target_is_refused_before_its_module_is_read():
         check_config(cfg)
 
 
-def test_a_hostile_callback_is_refused_when_the_config_is_composed(tmp_path):
-    with pytest.raises(hgo.HgoError, match=r"^hydra\.callbacks\.x\._target_: "
-                       r"distutils\.spawn\.spawn is not allowed"):
-        hgo.compose([SP, "+hydra.callbacks.x._target_=distutils.spawn.spawn",
-                     f"+hydra.callbacks.x.cmd=[touch,{tmp_path / 'spawned'}]"])
-    with pytest.raises(hgo.HgoError, match="builtins.open is not allowed"):
-        hgo.compose([SP, "+hydra.callbacks.x._target_=builtins.open",
-                     f"+hydra.callbacks.x.file={tmp_path / 'x'}"])
-    with pytest.raises(hgo.HgoError, match=r"hgo.cli.main is not allowed \(not a hydra Callback"):
-        hgo.compose([SP, "+hydra.callbacks.x._target_=hgo.cli.main"])
+@pytest.mark.parametrize("entry", [
+    ["distutils.spawn.spawn", "+hydra.callbacks.x.cmd=[touch,{tmp}/spawned]"],
+    ["builtins.open", "+hydra.callbacks.x.file={victim}", "+hydra.callbacks.x.mode=w"],
+    ["shutil.copyfile", "+hydra.callbacks.x.src=/dev/null", "+hydra.callbacks.x.dst={victim}"],
+    ["hgo.cli.main"],
+], ids=lambda entry: entry[0])
+def test_a_hostile_callback_is_refused_when_the_config_is_composed(entry, tmp_path, victim):
+    target, *args = entry
+    with pytest.raises(hgo.HgoError, match=rf"^hydra\.callbacks\.x\._target_: {target} is "
+                       "not allowed"):
+        hgo.compose([SP, f"+hydra.callbacks.x._target_={target}",
+                     *(a.format(tmp=tmp_path, victim=victim) for a in args)])
+    assert victim.read_text() == "precious\n" and not (tmp_path / "spawned").exists()
 
 
 def test_a_config_cannot_widen_its_own_rights():
