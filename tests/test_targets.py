@@ -65,6 +65,7 @@ def test_the_fast_path_refuses_before_the_call(victim):
     "hgo.cli.runs.export", "hgo.engine.codegen._atomic_write", "hgo.api.run",
 ])
 def test_refused(path):
+    """Refused by its text, or on the way (a module passed through, where it is defined)."""
     with pytest.raises(ConfigError, match="is not allowed"):
         targets.locate(path, "plant._target_")
 
@@ -99,6 +100,20 @@ def test_a_module_of_an_environment_inside_the_project_is_not_the_users(tmp_path
     with pytest.raises(ConfigError, match="hostile_pkg.run is not allowed"):
         targets.locate("hostile_pkg.run", "plant._target_")
     assert "hostile_pkg" not in sys.modules
+
+
+def test_a_nested_target_through_a_users_module_is_refused(tmp_path, monkeypatch):
+    """``usermod.os.system``: the user's module is allowed, ``os`` it imported is not,
+    in a nested node (Hydra's instantiate) too."""
+    (tmp_path / "usermod40.py").write_text("import os\n\ndef make(phi):\n    return phi\n")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    node = {"_target_": "usermod40.make",
+            "phi": {"_target_": "usermod40.os.system", "command": f"touch {tmp_path}/x"}}
+    with pytest.raises(ConfigError, match=r"^plant\.phi\._target_: usermod40\.os\.system is "
+                       r"not allowed \(it passes through module os\)"):
+        _instantiate(node, "plant", Plant)
+    assert not (tmp_path / "x").exists()
 
 
 def test_a_figure_target_is_refused_before_its_module_is_read():

@@ -348,6 +348,16 @@ def locate(path: object, key: str) -> object:
     return _FOUND[found]
 
 
+def check_text(path: object, key: str) -> None:
+    """The rule on the text of ``path`` alone, nothing imported (a figure's module, which
+    imports matplotlib, is loaded only where the figure is drawn; :func:`locate` there
+    checks the rest before the call)."""
+    if not isinstance(path, str):
+        raise ConfigError(key, f"must be a dotted path module.callable, got {path!r}")
+    dirs = trusted_dirs()
+    _check_text(path, key, component_module, dirs, _allowed_text(component_module, dirs))
+
+
 def locate_callback(path: object, key: str) -> type:
     """A ``hydra.callbacks`` entry's class: a Hydra ``Callback`` of hgo or a Hydra plugin."""
     from hydra.experimental.callback import Callback
@@ -377,9 +387,10 @@ def targets(node: object, key: str = "") -> Iterable[tuple[str, object]]:
 
 
 def check_targets(node: object, key: str = "") -> None:
-    """Every ``_target_`` under ``node`` (a resolved config container) allowed."""
+    """Every ``_target_`` under ``node`` (a resolved config container) allowed by its text
+    (:func:`check_text`: nothing imported; each is located in full where it is called)."""
     for sub, path in targets(node, key):
-        locate(path, sub)
+        check_text(path, sub)
 
 
 def instantiate(node, key: str, **kwargs):
@@ -389,7 +400,8 @@ def instantiate(node, key: str, **kwargs):
     from omegaconf import OmegaConf
 
     plain = OmegaConf.to_container(node, resolve=True) if OmegaConf.is_config(node) else node
-    check_targets(plain, key)
+    for sub, path in targets(plain, key):  # in full: Hydra resolves and calls each
+        locate(path, sub)
     return hydra_instantiate(node, **kwargs)
 
 

@@ -126,7 +126,7 @@ def _post(nodes: list, systems: list[System], trajectories: list) -> list[PostOu
             for name, spec in (node or {}).items():
                 key = f"{name}={spec!r}"
                 if key not in built:
-                    built[key] = _construct(spec)
+                    built[key] = _construct(spec, f"postprocess.{name}")
                 out = built[key].apply(system, traj)
                 total.series += out.series
                 total.rows += [{"postprocess": name, **row} for row in out.rows]

@@ -74,7 +74,7 @@ def check_figures(cfg: DictConfig) -> None:
         if not isinstance(node, Mapping) or "_target_" not in node:
             raise ConfigError(f"figures.{name}", "must be a figure node with a _target_ "
                               f"(or null to drop it), got {str(node)[:60]!r}")
-        targets.locate(node["_target_"], f"figures.{name}._target_")  # before any import
+        targets.check_text(node["_target_"], f"figures.{name}._target_")  # (imports nothing)
         found = _static_parameters(node["_target_"])
         if found is None:
             continue
