@@ -177,3 +177,12 @@ def test_a_sweep_never_runs_a_hostile_callback(tmp_path):
     assert done.stderr.strip().splitlines()[-1].startswith(
         "error: hydra.callbacks.x._target_: distutils.spawn.spawn is not allowed")
     assert not marker.exists() and "Traceback" not in done.stderr
+
+
+def test_the_command_line_flag_widens_the_rule_and_leaves_hydras_arguments(monkeypatch):
+    from hgo.cli import allow_targets
+
+    monkeypatch.setenv(targets.ENV, "mypkg")
+    rest = allow_targets(["--allow-targets", "json", SP, "--allow-targets=csv.writer", "-m"])
+    assert rest == [SP, "-m"] and os.environ[targets.ENV] == "mypkg,json,csv.writer"
+    assert targets.locate("json.dumps", "plant._target_").__name__ == "dumps"
