@@ -73,6 +73,7 @@ def test_refused(path):
 @pytest.mark.parametrize("path", [
     "hgo.plants.sp_linear.sp_linear_plant", "numpy.linalg.solve", "numpy.zeros",
     "scipy.linalg.expm", "math.sin", "test_targets.make_nothing",
+    "hgo.running.aggregate.aggregate_ensemble", "hgo.papers.moreno.sector_table.sector_table",
 ])
 def test_allowed(path):
     assert callable(targets.locate(path, "plant._target_"))

@@ -240,7 +240,10 @@ def _resolve(path: str, key: str, rule: Rule, dirs: tuple[Path, ...], allowed: s
                                   f"'{parts[i]}'")
             obj = getattr(obj, parts[i])
         if isinstance(obj, types.ModuleType):
-            if not rule(obj.__name__, dirs):
+            # a package above an allowed module (hgo.running of hgo.running.aggregate)
+            above = obj.__name__ == name and any(rule(".".join(parts[:j]), dirs)
+                                                 for j in range(i + 2, len(parts)))
+            if not (above or rule(obj.__name__, dirs)):
                 raise _refuse(key, path, f"it passes through module {obj.__name__}", allowed)
             home = obj.__name__
     module = _defining_module(obj)
