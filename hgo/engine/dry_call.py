@@ -109,11 +109,20 @@ def _py(fn: object) -> object:
     return getattr(fn, "py_func", fn)
 
 
-@functools.cache
 def _is_user(fn: object) -> bool:
     """Whether ``fn`` is a user's (not hgo's) function (cached: checked per member)."""
+    try:
+        return _is_user_cached(fn)
+    except TypeError:  # an unhashable callable
+        return _module_is_users(fn)
+
+
+def _module_is_users(fn: object) -> bool:
     module = getattr(_py(fn), "__module__", None) or ""
     return callable(fn) and not (module == "hgo" or module.startswith("hgo."))
+
+
+_is_user_cached = functools.cache(_module_is_users)
 
 
 def _constants(comp) -> list:
@@ -281,10 +290,9 @@ def _check_controller(system: System, s: _Signals) -> None:
 def _layout(comp) -> tuple:
     """What the check of a component depends on: its functions and sizes."""
     spec = comp.params
-    sizes = tuple(len(getattr(comp, n, None) if getattr(comp, n, None) is not None else ())
-                  for n in
-                  ("x0", "z0", "d0", "state_names", "output_names", "input_names",
-                   "disc_names", "estimated_states"))
+    sizes = tuple(-1 if getattr(comp, n, None) is None else len(getattr(comp, n))
+                  for n in ("x0", "z0", "d0", "state_names", "output_names", "input_names",
+                            "disc_names", "estimated_states"))
     return (type(comp), *_functions(comp), *_constants(comp), sizes,
             len(comp.p) if spec is None else spec.layout())
 
@@ -300,8 +308,11 @@ def check_user_code(system: System) -> None:
     if not any(has_user_code(c) for c in comps):
         return
     key = tuple(_layout(c) for c in comps)
-    if key in _CHECKED:
-        return
+    try:
+        if key in _CHECKED:
+            return
+    except TypeError:  # an unhashable function constant: checked every time
+        key = None
     s = _signals(system.plant)
     if has_user_code(system.plant):
         _check_plant(system.plant, s)
@@ -310,4 +321,5 @@ def check_user_code(system: System) -> None:
             _check_observer(obs, system.plant, s)
     if system.controller is not None and has_user_code(system.controller):
         _check_controller(system, s)
-    _CHECKED.add(key)
+    if key is not None:
+        _CHECKED.add(key)
