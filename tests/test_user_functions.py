@@ -174,6 +174,16 @@ def test_legitimate_functions_pass(fn):
     check_user_code(System(plant(), [standard_hgo(name="std", n=2, eps=0.1, phi0=phi0_ok)]))
 
 
+def f_interrupted(t, x, u, p, dx):  # (as Ctrl-C in a function that never returns)
+    raise KeyboardInterrupt
+
+
+def test_ctrl_c_in_the_call_names_the_function():
+    with pytest.raises(KeyboardInterrupt, match=r"^interrupted \(Ctrl-C\) while plant\.f was "
+                       "called once in plain Python"):
+        check_user_code(System(plant(f_interrupted), [observer()]))
+
+
 def test_hgo_components_are_not_called(monkeypatch):
     """A system of hgo's own functions only is not dry-called (no cost per run)."""
     from hgo.plants.sp_linear import sp_linear_plant

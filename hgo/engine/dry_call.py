@@ -173,6 +173,9 @@ class _Call:
                 result = _py(fn)(*args)
         except IndexError as err:
             raise UserCodeError(self._line(name, err)) from None
+        except KeyboardInterrupt:  # (a function that never returns: say which)
+            raise KeyboardInterrupt(f"interrupted (Ctrl-C) while {self.key}.{name} was called "
+                                    "once in plain Python, before compiling") from None
         except Exception:  # noqa: BLE001 - not the check's to judge (module doc)
             return None
         for out in outputs:
