@@ -14,17 +14,42 @@ import sys
 
 def user_modules_importable() -> None:
     """Modules in the current directory importable by ``_target_`` (``vdp.make_vdp`` with
-    ``vdp.py`` here), first on the path as ``python -m`` puts them: the ``hgo`` console
-    script's own ``sys.path[0]`` is its ``bin/`` folder instead."""
+    ``vdp.py`` here), *last* on the path: a file there named like a module hgo uses
+    (``yaml.py``) must not replace it (``python -m`` puts the directory first: moved)."""
     cwd = os.getcwd()
-    if cwd not in sys.path:
-        sys.path.insert(0, cwd)
+    sys.path[:] = [p for p in sys.path if p not in ("", cwd)] + [cwd]
+
+
+ALLOW_FLAG = "--allow-targets"
+
+
+def allow_targets(args: list[str]) -> list[str]:
+    """``args`` without ``--allow-targets PREFIX,...``, whose module prefixes join
+    ``HGO_ALLOW_TARGETS`` (:mod:`hgo.core.targets`: what a config may name, widened by
+    the user outside the config)."""
+    out, given, i = [], [], 0
+    while i < len(args):
+        arg = args[i]
+        if arg == ALLOW_FLAG and i + 1 < len(args):
+            given.append(args[i + 1])
+            i += 2
+            continue
+        if arg.startswith(ALLOW_FLAG + "="):
+            given.append(arg.partition("=")[2])
+        else:
+            out.append(arg)
+        i += 1
+    if given:
+        old = os.environ.get("HGO_ALLOW_TARGETS", "")
+        os.environ["HGO_ALLOW_TARGETS"] = ",".join(p for p in [old, *given] if p)
+    return out
 
 
 def run_app(args: list[str], prog: str = "hgo run") -> int:
     """``hgo run``: the Hydra application (:mod:`hgo.cli.app`) on ``args``; ``prog`` is the
     command name Hydra and ``run.json`` see (``experiments/run.py`` passes its own)."""
     user_modules_importable()
+    args = allow_targets(args)
     from hgo.running.figure_worker import discard_prestarted, prestart
 
     if single_run(args):  # its figure process prepares while this one imports and runs
@@ -139,8 +164,9 @@ def _runs_command(name: str):
 
 COMMANDS = {
     "run": (run_app, "run an experiment: hgo run experiment=sp_fig1 [-m for sweeps] "
-                  "[--config-dir DIR: your groups and presets] (Hydra overrides; "
-                  "hgo run --help lists the groups)"),
+                  "[--config-dir DIR: your groups and presets] [--allow-targets PKG,...: "
+                  "modules a _target_ may name besides hgo's, yours and numpy/scipy/math] "
+                  "(Hydra overrides; hgo run --help lists the groups)"),
     "reproduce": (_reproduce, "run every figure and claim of the papers and write a report "
                               "(hgo reproduce --help)"),
     "list": (_list, "the experiment presets with their descriptions, and each group's options "

@@ -20,7 +20,9 @@ from typing import Any
 from hydra.core.config_store import ConfigStore
 from omegaconf import DictConfig, OmegaConf, open_dict
 
+from hgo.core import hydra_guard
 from hgo.core.registry import paper_modules
+from hgo.core.targets import trust_config_dir
 
 
 @dataclass
@@ -208,6 +210,7 @@ def register_configs() -> None:
     hands out copies of what is stored, and storing again cost 0.044 s of a 0.19 s compose
     (an ``hgo reproduce`` composes ~50 times)."""
     bound_yaml_aliases()
+    hydra_guard.install()  # callbacks, logging factories and option paths checked
     if _REGISTERED:
         return
     OmegaConf.register_new_resolver("hgo.stamp", run_stamp, use_cache=True, replace=True)
@@ -273,6 +276,7 @@ def search_path_override(config_dir: str | Path | None) -> list[str]:
         from hgo.core.errors import ConfigError
 
         raise ConfigError("config_dir", f"'{path}' is not a directory")
+    trust_config_dir(path)  # (its modules may be named by _target_: hgo.core.targets)
     return [f"hydra.searchpath=[file://{path}]"]
 
 

@@ -170,3 +170,9 @@ def as_floats(key: str, value, shape: tuple[int | None, ...] | None = None):
     if not np.isfinite(arr).all():
         raise ConfigError(key, f"must be finite, got {value!r}")
     return arr
+
+
+class UserCodeError(PlainError, ValueError):
+    """A user's factory or function that fails where hgo calls or checks it, as one whole
+    line naming the config key, the function and the file:line (a configuration error:
+    exit 2)."""

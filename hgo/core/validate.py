@@ -3,7 +3,8 @@
 * :func:`check_values`: every numeric value of the config is a number (no NaN), finite
   unless its key means "no limit" when infinite (``INF_ALLOWED``), and the top-level keys
   have their types (``seed`` a non-negative int, ``run_name`` a plain name, ``resume`` a
-  bool, ``ensemble.size`` >= 0).
+  bool, ``ensemble.size`` >= 0), and every ``_target_`` passes the allowlist
+  (:mod:`hgo.core.targets`).
 * :func:`check_cost`: the output rows, noise samples and integration steps of the run,
   estimated up front, stay under ``solver.max_output_rows`` / ``solver.max_steps`` and
   the machine's free memory; the message gives the estimate and the keys to change.
@@ -22,6 +23,7 @@ from collections.abc import Mapping
 from omegaconf import DictConfig, OmegaConf
 
 from hgo.core.errors import ConfigError
+from hgo.core.targets import check_targets
 
 #: Leaf keys where ``inf`` is meaningful ("no limit"): they may be infinite, never NaN.
 INF_ALLOWED = {"u_max", "saturation", "state_bound", "h_max"}
@@ -182,6 +184,7 @@ def check_values(cfg: DictConfig) -> dict:
     check_empty_dict_overrides(cfg, container)
     check_numbers(container)
     check_top(container)
+    check_targets(container)  # every _target_ allowed before anything is called
     return container
 
 

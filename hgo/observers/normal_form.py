@@ -116,14 +116,15 @@ def lowpower_estimate(t, z, d, p, xhat):
 
 
 # ---------------------------------------------------------------------- design
-def hurwitz_alpha(n: int, roots: Sequence[float] | None = None) -> np.ndarray:
+def hurwitz_alpha(n: int, roots: Sequence[float] | None = None,
+                  key: str = "roots") -> np.ndarray:
     """alpha_1..alpha_n of prod (s - r_i) = s^n + alpha_1 s^(n-1) + ... + alpha_n;
-    default: every root at -1 (alpha_i = C(n, i))."""
+    default: every root at -1 (alpha_i = C(n, i)). ``key``: the config key in messages."""
     roots = [-1.0] * n if roots is None else list(roots)
     if len(roots) != n:
-        raise ValueError(f"roots must have n = {n} entries, got {len(roots)}")
+        raise ValueError(f"{key} must have n = {n} entries, got {len(roots)}")
     if not all(np.real(r) < 0 for r in roots):
-        raise ValueError(f"roots must have negative real parts (Hurwitz), got {roots}")
+        raise ValueError(f"{key} must have negative real parts (Hurwitz), got {roots}")
     return np.real(np.poly(roots))[1:]
 
 
@@ -185,9 +186,10 @@ def _common(key: str, n: int, phi0, saturation, model_params, xhat0,
     the model's names checked against the observer's ``own``."""
     if not (isinstance(n, int) and n >= 2):
         raise ValueError(f"{key}.n must be an integer >= 2, got {n!r}")
-    level = np.full(n, np.inf) if saturation is None else np.broadcast_to(
-        np.asarray(saturation, float), (n,)).copy()
-    if not np.all(level > 0):
+    level = np.full(n, np.inf) if saturation is None else np.asarray(saturation, float)
+    if level.size == 1:  # one level for every state
+        level = np.full(n, float(level.reshape(-1)[0]))
+    if level.shape != (n,) or not np.all(level > 0):
         raise ValueError(f"{key}.saturation must be > 0 (one level or n = {n}), "
                          f"got {saturation}")
     x0 = np.zeros(n) if xhat0 is None else np.asarray(xhat0, float).reshape(-1)
@@ -269,7 +271,7 @@ def standard_hgo(name: str, n: int, eps: float | None = None, ell: float | None 
     gain = _gain(eps, ell, key)
     constants, values, x0 = _common(key, n, phi0, saturation, model_params, xhat0,
                                     OWN_STANDARD)
-    alpha = hurwitz_alpha(n, roots)
+    alpha = hurwitz_alpha(n, roots, f"{key}.roots")
     constants["alpha"] = tuple(alpha.tolist())
     radius = gain * float(np.max(np.abs(np.roots(np.concatenate([[1.0], alpha])))))
     return Observer(name=name, state_names=[f"xhat{i + 1}" for i in range(n)],

@@ -16,6 +16,7 @@ import numpy as np
 from omegaconf import DictConfig, OmegaConf
 
 from hgo.core.errors import as_floats
+from hgo.engine.dry_call import check_user_code
 from hgo.engine.system import System
 from hgo.running.grid import check_grid, expand_grid, grid_size, shard_indices, shard_size
 
@@ -240,4 +241,5 @@ def build_members(nodes: list[Mapping]) -> list[System]:
         ctrl = n.get("controller")
         systems.append(System(plant, observers,
                               once(ctrl, "controller", Controller) if ctrl else None))
+        check_user_code(systems[-1])  # (once per layout of functions and sizes)
     return systems

@@ -33,9 +33,9 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from hydra.utils import instantiate
 from omegaconf import DictConfig
 
+from hgo.core import targets
 from hgo.core.errors import ConfigError
 from hgo.core.memory import collection_paused
 from hgo.core.validate import check_ensemble_cost, check_values
@@ -127,7 +127,7 @@ def _post(nodes: list, systems: list[System], trajectories: list) -> list[PostOu
             for name, spec in (node or {}).items():
                 key = f"{name}={spec!r}"
                 if key not in built:
-                    built[key] = _construct(spec)
+                    built[key] = _construct(spec, f"postprocess.{name}")
                 out = built[key].apply(system, traj)
                 total.series += out.series
                 total.rows += [{"postprocess": name, **row} for row in out.rows]
@@ -324,5 +324,6 @@ def run_ensemble(cfg: DictConfig, out_dir: str | Path) -> EnsembleResult:
     for name, node in (cfg.ensemble.get("reports") or {}).items():
         if node is not None:
             log.info("ensemble report %s", name)
-            instantiate(node, _partial_=True)(result, out_dir)
+            report = targets.instantiate(node, f"ensemble.reports.{name}", _partial_=True)
+            report(result, out_dir)
     return result

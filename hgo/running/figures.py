@@ -11,9 +11,9 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from hydra.utils import instantiate
 from omegaconf import DictConfig
 
+from hgo.core import targets
 from hgo.core.errors import ConfigError
 
 if TYPE_CHECKING:
@@ -74,6 +74,7 @@ def check_figures(cfg: DictConfig) -> None:
         if not isinstance(node, Mapping) or "_target_" not in node:
             raise ConfigError(f"figures.{name}", "must be a figure node with a _target_ "
                               f"(or null to drop it), got {str(node)[:60]!r}")
+        targets.check_text(node["_target_"], f"figures.{name}._target_")  # (imports nothing)
         found = _static_parameters(node["_target_"])
         if found is None:
             continue
@@ -106,6 +107,7 @@ def draw_figures(cfg: DictConfig, result: RunResult,
     for name, node in nodes.items():
         path = result.out_dir / f"{name}.{fmt}"
         with plt.rc_context({"savefig.dpi": dpi, "figure.dpi": dpi}), also_saved_as(vector):
-            instantiate(node, _partial_=True)(result, path)  # (rc: see figures.STYLE)
+            figure = targets.instantiate(node, f"figures.{name}", _partial_=True)
+            figure(result, path)  # (rc: see figures.STYLE)
         paths.append(path)
     return paths

@@ -27,13 +27,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 from hydra.errors import InstantiationException
-from hydra.utils import instantiate
 from omegaconf import DictConfig, OmegaConf
 
+from hgo.core import targets
 from hgo.core.components import Controller, Observer, Plant
-from hgo.core.errors import ConfigError
+from hgo.core.errors import ConfigError, UserCodeError
 from hgo.core.validate import check_cost as _check_sizes
 from hgo.core.validate import check_values
+from hgo.engine.dry_call import check_user_code
 from hgo.engine.interrupt import LAST_WORDS
 from hgo.engine.jit import run_seconds
 from hgo.engine.simulate import INTERRUPTED, SolverSettings, Trajectory, check_split, simulate
@@ -77,35 +78,34 @@ def _any_nested_target(values) -> bool:
     return any(_has_nested_target(v) for v in values if isinstance(v, dict | list))
 
 
-def _construct(node, **kwargs):
+def _construct(node, group: str, **kwargs):
     """``instantiate``, with a fast path for a plain, resolved dict of plain values: Hydra's
     instantiate costs ~10 ms a call (a claim's run builds five components, an ensemble one
     per member). A config node is resolved into plain values first, so a factory gets
     lists, dicts and numbers, in a single run as in an ensemble's members (a node with a
     long list too: instantiate cost ~0.4 ms a list element, 8.3 s for a 20,000-element
     ``plant.x0``, against 0.3 s to convert it). Nested ``_target_`` nodes and Hydra's
-    other ``_keys_`` go through instantiate."""
+    other ``_keys_`` go through instantiate. Every ``_target_`` passes the allowlist
+    (:mod:`hgo.core.targets`) before anything is called."""
     if OmegaConf.is_dict(node):
         node = OmegaConf.to_container(node, resolve=True)
+    if isinstance(node, dict) and kwargs:  # what hgo passes (the built plant) replaces the
+        node = {k: v for k, v in node.items() if k not in kwargs}  # node's (not built)
     if isinstance(node, dict) and not _has_nested_target(
             {k: v for k, v in node.items() if k != "_target_"}) and not any(
             k.startswith("_") and k != "_target_" for k in node):
-        factory = _locate_target(node["_target_"])
+        factory = targets.locate(node["_target_"], f"{group}._target_")
         try:
             return factory(**{k: v for k, v in node.items() if k != "_target_"}, **kwargs)
         except Exception as err:
             raise InstantiationException(f"Error in call to target '{node['_target_']}'") \
                 from err
-    return instantiate(node, **kwargs)
+    return targets.instantiate(node, group, **kwargs)
 
 
-@functools.cache
-def _locate_target(path: str):
-    """The callable ``path`` names, through Hydra's own target check (its blocklist of
-    ``os.system``, ``subprocess.*``, ...): the fast path runs only what instantiate would."""
-    from hydra._internal.instantiate._instantiate2 import _resolve_target
-
-    return _resolve_target(path, "_target_")
+def _locate_target(path: str, key: str = "_target_"):
+    """The callable ``path`` names, through hgo's allowlist (:func:`hgo.core.targets.locate`)."""
+    return targets.locate(path, key)
 
 
 def _signature_error(group: str, node, err: TypeError) -> ConfigError:
@@ -124,23 +124,65 @@ def _signature_error(group: str, node, err: TypeError) -> ConfigError:
     return ConfigError(group, text, allowed)
 
 
+def _is_signature_error(err: TypeError) -> bool:
+    """A TypeError of the call itself (a keyword the factory does not take or misses),
+    not one raised inside the factory."""
+    return bool(re.search(r"unexpected keyword argument|missing \d+ required|takes \d+ "
+                          r"positional|got multiple values", str(err)))
+
+
+def _factory_error(group: str, node, err: InstantiationException) -> Exception:
+    """A factory's failure as one line: hgo's own ValueError (it names its key) as it is,
+    a keyword it does not take naming that key, anything else as ``plant._target_
+    vdp.make_vdp: ZeroDivisionError: division by zero (vdp.py:12)``."""
+    cause = err.__cause__
+    target = node.get("_target_") if isinstance(node, Mapping) else None
+    if isinstance(cause, ConfigError) or (isinstance(cause, ValueError) and
+                                          str(target).startswith("hgo.")):
+        return cause
+    if isinstance(cause, TypeError) and _is_signature_error(cause):
+        return _signature_error(group, node, cause)
+    if cause is None:
+        text = " ".join(line for line in str(err).splitlines() if "full_key" not in line)
+        return ConfigError(f"{group}._target_", " ".join(text.split()))
+    return UserCodeError(f"{group}._target_ {target}: {targets.code_error(cause)}")
+
+
 def _instantiate(node: DictConfig, group: str, expected: type, **kwargs):
     if not isinstance(node, Mapping) or "_target_" not in node:
         raise ConfigError(group, "needs a _target_ (the factory to call)")
     try:
-        obj = _construct(node, **kwargs)
+        obj = _construct(node, group, **kwargs)
     except InstantiationException as err:  # surface the factory's one-line message
-        cause = err.__cause__
-        if isinstance(cause, ValueError):
-            raise cause from None
-        if isinstance(cause, TypeError):  # e.g. a keyword the factory does not take
-            raise _signature_error(group, node, cause) from None
-        text = " ".join(line for line in str(err).splitlines() if "full_key" not in line)
-        raise ConfigError(f"{group}._target_", " ".join(text.split())) from None
+        raise _factory_error(group, node, err) from None
     if not isinstance(obj, expected):
         raise ConfigError(f"{group}._target_", f"must build a {expected.__name__}, "
                           f"got {type(obj).__name__}")
+    check_initial_state(obj, group, node)
     return obj
+
+
+def _initial_key(group: str, node, name: str) -> str:
+    """The config key of a component's initial state: ``plant.x0`` when the node sets it."""
+    return f"{group}.{name}" if isinstance(node, Mapping) and name in node else group
+
+
+def check_initial_state(comp, group: str, node) -> None:
+    """A plant's ``x0`` and an observer's ``z0``/``d0`` have one entry per declared state
+    (a 3-entry x0 for 2 states failed after "integrating", naming the kernel's z0)."""
+    pairs = {Plant: [("x0", "state_names", "states")],
+             Observer: [("z0", "state_names", "states"), ("d0", "disc_names",
+                                                          "discrete states")]}
+    for kind, checks in pairs.items():
+        if not isinstance(comp, kind):
+            continue
+        for attr, names_attr, what in checks:
+            value, names = np.asarray(getattr(comp, attr)), getattr(comp, names_attr)
+            if value.shape != (len(names),):
+                raise ConfigError(_initial_key(group, node, attr), f"has shape {value.shape} "
+                                  f"({value.size} entries); {comp.name} has {len(names)} "
+                                  f"{what} ({', '.join(names)})",
+                                  f"{len(names)} numbers")
 
 
 def plant_argument(node: Mapping, plant: Plant) -> dict:
@@ -167,7 +209,10 @@ def build_system(nodes: Mapping) -> System:
                               **plant_argument(node, plant))
                  for name, node in nodes["observer"].items()]
     ctrl = nodes.get("controller")
-    return System(plant, observers, _instantiate(ctrl, "controller", Controller) if ctrl else None)
+    system = System(plant, observers,
+                    _instantiate(ctrl, "controller", Controller) if ctrl else None)
+    check_user_code(system)  # its functions called once in plain Python
+    return system
 
 
 def vacuous_factor(cfg: DictConfig) -> float:
