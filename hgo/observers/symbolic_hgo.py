@@ -37,6 +37,7 @@ The minimum of |det dPhi/dx(x^)| and the guard's step ends are metrics through t
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Sequence
 from dataclasses import replace
@@ -51,6 +52,8 @@ from hgo.observers.small_lu import lu_solve, max_abs
 from hgo.observers.symbolic_model import PREFIX, observer_functions
 from hgo.plants.observability import derive, det_at, inverse_branch, values_of
 from hgo.plants.symbolic import SymbolicPlant
+
+log = logging.getLogger(__name__)
 
 
 # ---------------------------------------------------------------------- kernel functions
@@ -192,10 +195,17 @@ def inverse_estimate(t, z, d, p, xhat):
 
 # ---------------------------------------------------------------------- factories
 def _derived(plant: object, key: str):
+    """The observability of ``plant``, its singular set reported up front (logged; a
+    warning where x0 is in it)."""
     if not isinstance(plant, SymbolicPlant) or plant.model is None:
         raise ConfigError(f"{key}.plant", "needs a plant given by its equations (plant="
                           "symbolic or a preset built on it)")
-    return derive(plant.model)
+    obs = derive(plant.model)
+    det0 = det_at(obs, values_of(plant), plant.x0)
+    where = "; ".join(obs.singular) or "nowhere"
+    log.log(logging.WARNING if det0 == 0 else logging.INFO,
+            "%s: dPhi/dx singular where: %s; det dPhi/dx at x0 = %.6g", key, where, det0)
+    return obs
 
 
 def _xhat0(key: str, xhat0: Sequence[float] | None, plant: SymbolicPlant) -> np.ndarray:

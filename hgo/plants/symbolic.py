@@ -235,7 +235,7 @@ def symbolic_plant(states: Sequence[str] | None = None, f: Mapping | None = None
     if model is not None:
         spec = _from_python(user_function("plant.model", model), spec)
     for key in ("states", "f", "h", "x0"):
-        if getattr(spec, key) is None:
+        if getattr(spec, key) in (None, "???"):  # (a config's mandatory value, unfilled)
             raise ConfigError(f"plant.{key}", "is missing (plant=symbolic needs states, f, h "
                               "and x0; inputs and params are optional)")
     sym, values, x0_arr = model_from(spec, str(name))
