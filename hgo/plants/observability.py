@@ -102,7 +102,9 @@ def _singular(det: sp.Expr, x: list[sp.Symbol]) -> tuple[str, ...]:
             if not base.free_symbols:
                 continue
             states = [s for s in x if base.has(s)] or sorted(base.free_symbols, key=str)
-            out.append(_condition(base, states[0]) + label)
+            condition = _condition(base, states[0])
+            if not any(c.startswith(condition) for c in out):
+                out.append(condition + label)
     return tuple(out)
 
 

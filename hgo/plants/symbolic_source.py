@@ -39,10 +39,10 @@ class KernelPrinter(PythonCodePrinter):
         base, exp = expr.as_base_exp()
         if exp.is_Integer and 1 < abs(int(exp)) <= 4:
             term = self.parenthesize(base, sp.printing.precedence.PRECEDENCE["Mul"] + 1)
-            product = "*".join([term] * abs(int(exp)))
-            return product if exp > 0 else f"1.0/({product})"
+            product = f"({'*'.join([term] * abs(int(exp)))})"  # a factor of a Mul as it is
+            return product if exp > 0 else f"(1.0/{product})"
         if exp == -1:
-            return f"1.0/{self.parenthesize(base, sp.printing.precedence.PRECEDENCE['Mul'] + 1)}"
+            return f"(1.0/{self.parenthesize(base, sp.printing.precedence.PRECEDENCE['Mul'] + 1)})"
         return super()._print_Pow(expr, rational=rational)
 
     def _print_Float(self, expr):  # noqa: N802
