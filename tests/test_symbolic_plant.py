@@ -264,3 +264,36 @@ def test_without_noise_both_observers_converge(noiseless_run) -> None:
     metrics = result.metrics.set_index(["observer", "quantity"]).empirical
     assert metrics[("hgo_original", "guard_step_ends")] == 0
     assert metrics[("hgo_original", "min_abs_det_dPhi")] > 0
+
+
+def test_the_lowpower_observer_with_newton_inverse_converges_in_the_kernel() -> None:
+    """kind=lowpower, inverse=newton compiled (one kernel): Newton from the last x^ every
+    step, its iterations and residual recorded, the estimate converging without noise."""
+    import hgo
+
+    result = hgo.run(hgo.compose([
+        "plant=lotka_volterra", "observer=hgo_normal_form", "postprocess=observability",
+        "observer.hgo_normal_form.kind=lowpower", "observer.hgo_normal_form.inverse=newton",
+        "observer.hgo_normal_form.eps=0.1", "observer.hgo_normal_form.xhat0=[1.0,2.0]",
+        "solver=dop853", "solver.t_end=20", "metrics.window=5", "recording=off"]))
+    s = result.signals
+    assert result.ok
+    iterations = s["/observer/hgo_normal_form/discrete/newton_iterations"]
+    assert iterations.max() >= 1 and iterations.max() <= 20
+    assert s["/observer/hgo_normal_form/discrete/inverse_residual"].max() <= 1e-12
+    final = np.abs(s.filter(like="/error/hgo_normal_form/").to_numpy()[-1])
+    assert np.all(final <= 1e-6 * np.ptp(s.filter(like="/plant/x/").to_numpy(), axis=0))
+    metrics = result.metrics.set_index(["observer", "quantity"]).empirical
+    assert metrics[("hgo_normal_form", "min_abs_det_dPhi")] == pytest.approx(0.5)  # at x^(0)
+
+
+def test_hgo_observability_prints_the_map_and_refuses_a_plant_without_equations(
+        capsys) -> None:
+    from hgo.cli.observability import main
+
+    assert main(["plant=lotka_volterra"]) == 0
+    out = capsys.readouterr().out
+    assert "xi2 = a*x1 - b*x1*x2" in out and "singular where: b = 0; x1 = 0" in out
+    assert "phi0(xi, u) = -a*c*xi1**2 + a*d*xi1 + c*xi1*xi2 - d*xi2 + xi2**2/xi1" in out
+    assert main(["plant=van_der_pol"]) == 2
+    assert "error: plant: van_der_pol is not given by its equations" in capsys.readouterr().err
