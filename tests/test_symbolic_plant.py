@@ -297,3 +297,24 @@ def test_hgo_observability_prints_the_map_and_refuses_a_plant_without_equations(
     assert "phi0(xi, u) = -a*c*xi1**2 + a*d*xi1 + c*xi1*xi2 - d*xi2 + xi2**2/xi1" in out
     assert main(["plant=van_der_pol"]) == 2
     assert "error: plant: van_der_pol is not given by its equations" in capsys.readouterr().err
+
+
+def test_a_generated_function_unpickles_in_another_process() -> None:
+    """A figure process forked before the plant was built gets the run's system pickled:
+    the generated module must import there (it failed with ModuleNotFoundError)."""
+    import pickle
+    import subprocess
+    import sys
+
+    blob = pickle.dumps(_plant(LV).f)
+    code = ("import pickle, sys, numpy as np\n"
+            "from hgo.core.components import Params\n"
+            "f = pickle.loads(sys.stdin.buffer.read())\n"
+            "dx = np.zeros(2)\n"
+            "f(0.0, np.array([2.0, 1.0]), np.zeros(0), Params(a=1.0, b=0.5, c=0.5, d=1.0)"
+            ".vector, dx)\n"
+            "print(dx.tolist())\n")
+    done = subprocess.run([sys.executable, "-c", code], input=blob, capture_output=True,
+                          timeout=120)
+    assert done.returncode == 0, done.stderr.decode()[-2000:]
+    assert done.stdout.decode().strip() == "[1.0, 0.0]"
