@@ -147,6 +147,13 @@ def _plot(args: list[str]) -> int:
     return main(args)
 
 
+def _observability(args: list[str]) -> int:
+    user_modules_importable()  # (a Python model named by _target_ in the current directory)
+    from hgo.cli.observability import main
+
+    return main(args)
+
+
 def _view(args: list[str]) -> int:
     from hgo.cli.view import main
 
@@ -178,6 +185,8 @@ COMMANDS = {
     "plot": (_plot, "the trade-off figure of a sweep (a metric against one swept key, one line "
                     "per value of another, minima and their power law), or a run's states "
                     "and errors; png and pdf"),
+    "observability": (_observability, "Phi, dPhi/dx, its singular set and phi0 of a plant given "
+                                      "by its equations: hgo observability plant=lotka_volterra"),
     "view": (_view, "open runs (a sweep directory: all its jobs) in the Rerun viewer, each its "
                     "own recording (--web: serve to a browser and print the ports to forward)"),
 }
