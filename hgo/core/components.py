@@ -290,6 +290,10 @@ class Observer(Named):
     # > 0: a sampled observer (e.g. a continuous-discrete Kalman filter): the engine ends a
     # step at every k * sample_period in (0, t_end), so ``update`` runs at each instant
     sample_period: float = 0.0
+    # optional ``explain(d) -> str``: why a run stopped, read from this observer's discrete
+    # state at the stop ("" if not its doing), e.g. a Kalman filter's covariance no longer
+    # positive definite; appended to the run's one-line status
+    explain: object = None
 
     @property
     def nz(self) -> int:

@@ -6,7 +6,8 @@ Both use the plant's own f and h and their Jacobians A = df/dx (x^, u), C = dh/d
 triangle (n (n + 1) / 2)], so P stays symmetric by construction, and its smallest
 eigenvalue is a recorded signal (discrete state ``P_min_eig``). A P that is no longer
 positive definite (that eigenvalue <= 0, or not finite) makes x^ non-finite, so the run
-stops there ("non-finite state", at the instant P lost it).
+stops there, its one-line status "non-finite state (observer <name>: the covariance P is
+no longer positive definite (smallest eigenvalue ...))" (``Observer.explain``).
 
 * :func:`ekf`, continuous time (Kalman & Bucy 1961, extended to f and h):
 
@@ -37,6 +38,7 @@ stops there ("non-finite state", at the instant P lost it).
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping, Sequence
 
@@ -190,6 +192,9 @@ def ekf_cd_update(t, z, d, y, u, p):
     for i in range(n):
         for j in range(n):
             P[i, j] += p.kf_Q[i, j]
+    _check_definite(z, d, P, p, W, 1)  # P- (P+ below)
+    if not d[1] > 0.0:
+        return
     _gain_terms(t, x, P, p, C, PCt, yh, xw, yp, ym)
     for a in range(m):  # S = C P- C^T + R
         for b in range(m):
@@ -197,7 +202,8 @@ def ekf_cd_update(t, z, d, y, u, p):
             for j in range(n):
                 v += C[a, j] * PCt[j, b]
             S[a, b] = v
-    if not cholesky(S, m, L):
+    if not cholesky(S, m, L):  # (S = C P- C^T + R: only by rounding, P- and R definite)
+        d[1] = math.nan
         z[0] = math.nan
         return
     for i in range(n):
@@ -230,6 +236,15 @@ def ekf_estimate(t, z, d, p, xhat):
         xhat[i] = z[i]
 
 
+def lost_definiteness(name: str, slot: int, d: np.ndarray) -> str:
+    """``Observer.explain`` of the filters: their P not positive definite at the stop
+    (d[slot], P's smallest eigenvalue, <= 0 or NaN), else ""."""
+    if d[slot] > 0:
+        return ""
+    return (f"observer {name}: the covariance P is no longer positive definite (smallest "
+            f"eigenvalue {d[slot]:.3g})")
+
+
 def triangle_names(names: Sequence[str]) -> list[str]:
     """Names of P's upper triangle entries, row by row: P_x1_x1, P_x1_x2, ..."""
     return [f"P_{a}_{b}" for i, a in enumerate(names) for b in names[i:]]
@@ -255,7 +270,10 @@ def _observer(name: str, plant: Plant, xhat0, P0: np.ndarray, **kwargs) -> Obser
                     z0=np.concatenate([x0, tri]), signals={"P": list(range(n, n + tri.size))},
                     reads_outputs=list(range(len(plant.output_names))),
                     reads_inputs=list(range(len(plant.input_names))),
-                    estimate=ekf_estimate, spectral_radius=plant.spectral_radius, **kwargs)
+                    estimate=ekf_estimate, spectral_radius=plant.spectral_radius,
+                    explain=functools.partial(lost_definiteness, name,
+                                              kwargs["disc_names"].index("P_min_eig")),
+                    **kwargs)
 
 
 def ekf(name: str, plant: Plant, Q: object = 0.0, R: object = None, P0: object = 1.0,

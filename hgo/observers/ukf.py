@@ -28,11 +28,13 @@ predicted mean between instants, x+ at an instant. Q is the covariance the proce
 adds over one period, as for :func:`hgo.observers.ekf.ekf_cd` and filterpy's
 ``UnscentedKalmanFilter`` (whose predict and update these are, with the sigma points
 redrawn after the prediction). A P- or P+ that is not positive definite (no Cholesky
-factor) makes the estimate non-finite: the run stops there.
+factor) makes the estimate non-finite: the run stops there, and says why in its status
+line (``Observer.explain``, as :mod:`hgo.observers.ekf`).
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping, Sequence
 
@@ -40,7 +42,7 @@ import numpy as np
 
 from hgo.core.components import Observer, Plant
 from hgo.engine.jit import matrix_view, record_helper
-from hgo.observers.ekf import sampled_d0, sampled_names
+from hgo.observers.ekf import lost_definiteness, sampled_d0, sampled_names
 from hgo.observers.kalman_linalg import cholesky, smallest_eigenvalue, solve_rows
 from hgo.observers.kalman_tuning import covariance, initial_estimate, noise_variance
 from hgo.observers.kalman_tuning import sample_period as measurement_period
@@ -129,6 +131,7 @@ def ukf_update(t, z, d, y, u, p):
         for b in range(n):
             P[a, b] += p.kf_Q[a, b]
     if not cholesky(P, n, L):
+        d[1] = smallest_eigenvalue(P, n, W)
         z[0] = math.nan
         return
     _sigma_points(xm, L, p, X)
@@ -151,7 +154,8 @@ def ukf_update(t, z, d, y, u, p):
                 v += p.kf_Wc[i] * (X[i, j] - xm[j]) * (Y[i, a] - ym[a])
             Pxy[j, a] = v
             K[j, a] = v
-    if not cholesky(S, m, Ls):
+    if not cholesky(S, m, Ls):  # (S = P_yy + R: only by rounding, P- and R definite)
+        d[1] = math.nan
         z[0] = math.nan
         return
     solve_rows(Ls, m, K, n)  # K = P_xy S^-1
@@ -170,6 +174,7 @@ def ukf_update(t, z, d, y, u, p):
         d[2 + k] = y[k]
     d[1] = smallest_eigenvalue(P, n, W)
     if not cholesky(P, n, L):
+        d[1] = min(d[1], 0.0)  # (no factor: not definite, whatever the rounding says)
         z[0] = math.nan
         return
     _sigma_points(xm, L, p, X)
@@ -238,5 +243,6 @@ def ukf(name: str, plant: Plant, Q: object = 0.0, R: object = None, P0: object =
                     z0=sigma_points(x0, P0m, gamma).ravel(), d0=sampled_d0(P0m, m), p=p,
                     f=ukf_f, estimate=ukf_estimate, update=ukf_update,
                     spectral_radius=plant.spectral_radius,
-                    reads_outputs=list(range(m)), reads_inputs=list(range(len(plant.input_names))),
-                    sample_period=Ts)
+                    reads_outputs=list(range(m)),
+                    reads_inputs=list(range(len(plant.input_names))), sample_period=Ts,
+                    explain=functools.partial(lost_definiteness, name, 1))
