@@ -103,6 +103,12 @@ def _list(args: list[str]) -> int:
     return main(args)
 
 
+def _observability(args: list[str]) -> int:
+    from hgo.cli.observability import main
+
+    return main(args)
+
+
 def _view(args: list[str]) -> int:
     from hgo.cli.view import main
 
@@ -130,6 +136,8 @@ COMMANDS = {
                                     "--compare A B)"),
     "show": (_runs_command("show"), "one run: status, provenance, config, metrics"),
     "export": (_runs_command("export"), "a recording as CSV or Parquet (--format csv|parquet)"),
+    "observability": (_observability, "Phi, dPhi/dx, its singular set and phi0 of a plant given "
+                                      "by its equations: hgo observability plant=lotka_volterra"),
     "view": (_view, "open runs (a sweep directory: all its jobs) in the Rerun viewer, each its "
                     "own recording (--web: serve to a browser and print the ports to forward)"),
 }
