@@ -17,6 +17,7 @@ One kernel for every linear check (the four observers in one run), one for Van d
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -75,18 +76,24 @@ def p_inf() -> np.ndarray:
     return sl.solve_continuous_are(A.T, C.T, Q_CT, R)
 
 
-@pytest.fixture(scope="module")
-def linear_run():
+def linear_system(sample_period: float | None = None) -> System:
+    """The linear plant, its continuous EKF, the steady-state filter, CD-EKF and UKF
+    (measuring every ``sample_period``; None: the noise's period TS)."""
     plant = linear_plant()
     K_inf = (p_inf() @ C.T @ np.linalg.inv(R)).ravel()
     steady = Observer(name="steady", state_names=["x1_hat", "x2_hat"], disc_names=[],
                       estimated_states=[0, 1], z0=np.array([0.5, 0.5]), d0=np.zeros(0),
                       p=Params(A=A, C=C, K=K_inf), f=steady_f, estimate=steady_estimate)
-    observers = [ekf("ekf", plant, Q=Q_CT, R=R, P0=1.0, xhat0=[0.5, 0.5]), steady,
-                 ekf_cd("ekf_cd", plant, Q=Q_CD, P0=1.0, xhat0=[0.5, 0.5], noise=NOISE),
-                 ukf("ukf", plant, Q=Q_CD, P0=1.0, alpha=0.5, beta=2.0, kappa=1.0,
-                     xhat0=[0.5, 0.5], noise=NOISE)]
-    system = System(plant, observers)
+    sampled = {"Q": Q_CD, "P0": 1.0, "xhat0": [0.5, 0.5], "noise": NOISE,
+               "sample_period": sample_period}
+    return System(plant, [ekf("ekf", plant, Q=Q_CT, R=R, P0=1.0, xhat0=[0.5, 0.5]), steady,
+                          ekf_cd("ekf_cd", plant, **sampled),
+                          ukf("ukf", plant, alpha=0.5, beta=2.0, kappa=1.0, **sampled)])
+
+
+@pytest.fixture(scope="module")
+def linear_run():
+    system = linear_system()
     solver = SolverSettings(t_end=T_END, dt_out=TS, method="dop853", rtol=1e-12, atol=1e-14,
                             h_max=TS)
     noise = noise_model("gaussian", std=0.01, period=TS).sample(T_END, 1, 3)
@@ -118,11 +125,31 @@ def test_continuous_ekf_estimate_equals_the_steady_state_filter(linear_run):
 def test_continuous_discrete_ekf_and_ukf_agree_on_a_linear_plant(linear_run):
     """CD-EKF and UKF (alpha = 0.5, beta = 2, kappa = 1) give the same estimate to 1e-9
     at every output instant, and both converge (error below 0.1 at the end)."""
-    _, _, _, traj = linear_run
+    system, _, _, traj = linear_run
     assert np.abs(traj.xh[:, 4:6] - traj.xh[:, 6:8]).max() < 1e-9
     assert np.abs(traj.xh[-1, 4:6] - traj.z[-1, :2]).max() < 0.1
-    # the measurement updates happened at every instant k * TS (d[0] = next k)
-    assert traj.d[-1, 1] == round(T_END / TS) + 1
+    # the measurement updates happened at every instant k * TS (the next k in d)
+    for k in (2, 3):
+        assert traj.d[-1, system.d_slices[k][0]] == round(T_END / TS) + 1
+
+
+def test_measurements_are_taken_at_their_own_instants(linear_run):
+    """Sample period 0.07 s against noise held 0.05 s (instants off the noise grid; the
+    same kernel): each update takes y = C x(k T) + the noise sample held just before k T,
+    to 1e-12, at every k (the engine ends a step at each k T: Observer.sample_period), and
+    CD-EKF and UKF still agree to 1e-9."""
+    _, solver, noise, _ = linear_run
+    period = 0.07
+    system = linear_system(sample_period=period)
+    traj = simulate(system, replace(solver, dt_out=period), noise)
+    assert traj.ok, traj.message
+    k = np.arange(1, len(traj.t))
+    da, _ = system.d_slices[2]  # ekf_cd's: [sample, P_min_eig, y_y]
+    assert np.array_equal(traj.d[1:, da], k + 1.0)
+    held = noise.samples[np.ceil(k * period / TS - 1e-9).astype(int) - 1, 0]
+    taken = traj.d[1:, da + 2] - traj.z[1:, 0]  # y_k - C x(t_k), C = [1, 0]
+    assert np.abs(taken - held).max() < 1e-12
+    assert np.abs(traj.xh[:, 4:6] - traj.xh[:, 6:8]).max() < 1e-9
 
 
 def test_loss_of_positive_definiteness_stops_the_run(linear_run):

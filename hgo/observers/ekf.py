@@ -262,7 +262,7 @@ def _tuning(key: str, plant: Plant, Q, R, P0, noise, continuous: bool) -> tuple:
 def _observer(name: str, plant: Plant, xhat0, P0: np.ndarray, **kwargs) -> Observer:
     """The EKF's Observer: z = [x^ | P's triangle], every output and input read."""
     n = plant.nx
-    x0 = initial_estimate(f"observer.{name}", xhat0, plant.state_names)
+    x0 = initial_estimate(f"observer.{name}", xhat0, plant)
     tri = np.empty(n * (n + 1) // 2)
     pack_symmetric(P0, n, tri)
     return Observer(name=name, state_names=[f"{s}_hat" for s in plant.state_names]
@@ -281,7 +281,7 @@ def ekf(name: str, plant: Plant, Q: object = 0.0, R: object = None, P0: object =
     """The continuous-time extended Kalman filter (module doc) of ``plant``.
 
     ``Q``, ``R`` (default from ``noise``), ``P0``: :mod:`hgo.observers.kalman_tuning`;
-    ``xhat0``: x^(0), default 0."""
+    ``xhat0``: x^(0), default the plant's x(0)."""
     key = f"observer.{name}"
     Qm, Rm, P0m = _tuning(key, plant, Q, R, P0, noise, continuous=True)
     n, m = plant.nx, len(plant.output_names)

@@ -28,6 +28,8 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
+from hgo.core.components import Plant
+
 
 def covariance(key: str, value: object, names: Sequence[str], definite: bool) -> np.ndarray:
     """``value`` (scalar, diagonal or matrix; module doc) as an n x n matrix for the signals
@@ -88,10 +90,13 @@ def sample_period(key: str, value: float | None, noise: Mapping | None) -> float
     return float(value)
 
 
-def initial_estimate(key: str, value: Sequence[float] | None, names: Sequence[str]
-                     ) -> np.ndarray:
-    """x^(0): ``value`` (one finite number per state), default 0."""
-    x0 = np.zeros(len(names)) if value is None else np.asarray(value, float).reshape(-1)
+def initial_estimate(key: str, value: Sequence[float] | None, plant: Plant) -> np.ndarray:
+    """x^(0): ``value`` (one finite number per state), default the plant's x(0) (as the
+    observers derived from a plant's equations: a filter then starts where the plant
+    does, never at a point where the plant's f is undefined; give xhat0 to see a
+    transient)."""
+    names = plant.state_names
+    x0 = np.array(plant.x0, float) if value is None else np.asarray(value, float).reshape(-1)
     if x0.shape != (len(names),) or not np.all(np.isfinite(x0)):
         raise ValueError(f"{key}.xhat0 must have {len(names)} finite entries "
                          f"({', '.join(names)}), got {value}")

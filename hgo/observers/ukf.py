@@ -232,7 +232,7 @@ def ukf(name: str, plant: Plant, Q: object = 0.0, R: object = None, P0: object =
                     else R, outputs, definite=True)
     P0m = covariance(f"{key}.P0", P0, states, definite=True)
     Ts = measurement_period(key, sample_period, noise)
-    x0 = initial_estimate(key, xhat0, states)
+    x0 = initial_estimate(key, xhat0, plant)
     Wm, Wc, gamma = weights(n, float(alpha), float(beta), float(kappa))
     p = model_params(plant, key, _work_size(n, m), {},
                      {"kf_Q": Qm, "kf_R": Rm, "kf_Ts": Ts, "kf_Wm": Wm, "kf_Wc": Wc,
