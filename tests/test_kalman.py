@@ -141,7 +141,7 @@ def test_measurements_are_taken_at_their_own_instants(linear_run):
     _, solver, noise, _ = linear_run
     period = 0.07
     system = linear_system(sample_period=period)
-    traj = simulate(system, replace(solver, dt_out=period), noise)
+    traj = simulate(system, replace(solver, t_end=285 * period, dt_out=period), noise)
     assert traj.ok, traj.message
     k = np.arange(1, len(traj.t))
     da, _ = system.d_slices[2]  # ekf_cd's: [sample, P_min_eig, y_y]
