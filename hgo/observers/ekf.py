@@ -15,7 +15,10 @@ no longer positive definite (smallest eigenvalue ...))" (``Observer.explain``).
       P'  = A P + P A^T + Q - P C^T R^-1 C P,
 
   Q and R spectral densities (the default R: :mod:`hgo.observers.kalman_tuning`). The
-  smallest eigenvalue of P is evaluated after every integration step.
+  smallest eigenvalue of P is evaluated after every integration step. Its gain K is not
+  known in advance (it follows P), so it declares no spectral radius of its own: with
+  ``solver.method=rk4`` the step h_max must resolve the filter's dynamics (the adaptive
+  methods control their error).
 
 * :func:`ekf_cd`, continuous–discrete (Jazwinski 1970): between measurement instants
   t_k = k T the prediction
