@@ -259,6 +259,26 @@ def test_plant_jacobian_is_used_when_given():
     assert np.array_equal(J, 2.0 * _vdp_jacobian(x, 1.0))
 
 
+def test_symbolic_plant_jacobians_reach_the_filter():
+    """A plant given by its equations (plant=symbolic, Rossler) has generated jac_f and
+    jac_h; the filter's A and C are theirs: the analytic Jacobian to rounding."""
+    from hgo.plants.symbolic import symbolic_plant
+
+    plant = symbolic_plant(name="rossler", states=["x", "y", "z"],
+                           params={"a": 0.2, "b": 0.2, "c": 5.7},
+                           f={"x": "-y - z", "y": "x + a*y", "z": "b + z*(x - c)"},
+                           h={"y_meas": "y"}, x0=[1.0, 1.0, 0.0])
+    p = ekf("e", plant, R=1e-3).p
+    assert p.kf_has_jac_f and p.kf_has_jac_h
+    x = np.array([0.3, -1.2, 2.0])
+    J, Cm, w = np.empty((3, 3)), np.empty((1, 3)), np.empty(3)
+    jacobian_f(0.0, x, np.zeros(0), p, J, w, w.copy(), w.copy())
+    jacobian_h(0.0, x, p, Cm, w, np.empty(1), np.empty(1))
+    expected = [[0.0, -1.0, -1.0], [1.0, 0.2, 0.0], [x[2], 0.0, x[0] - 5.7]]
+    assert np.abs(J - expected).max() < 1e-15
+    assert np.array_equal(Cm, [[0.0, 1.0, 0.0]])
+
+
 @pytest.mark.parametrize(("kwargs", "message"), [
     ({"Q": [1.0, 2.0, 3.0]}, "observer.f.Q must be a scalar, 2 numbers (the diagonal) or a "
                              "2x2 matrix for (x1, x2), got shape (3,)"),
