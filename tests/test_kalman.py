@@ -6,9 +6,9 @@
   written here) fed the same noisy measurement.
 * Continuous–discrete EKF and UKF on a linear plant: the same estimates (both are the
   Kalman filter there).
-* Continuous–discrete UKF on Van der Pol against filterpy's UnscentedKalmanFilter fed the
-  measurements hgo's filter took, each sigma point integrated by scipy's DOP853 at the
-  tolerances of hgo's run.
+* Continuous–discrete UKF on Van der Pol against filterpy's UnscentedKalmanFilter (2.0)
+  fed the measurements hgo's filter took, each sigma point integrated by scipy's DOP853
+  at the tolerances of hgo's run.
 * Central-difference Jacobians against the analytic ones; tuning errors in one line.
 
 One kernel for every linear check (the four observers in one run), one for Van der Pol.
@@ -190,8 +190,8 @@ def vdp_run():
 
 
 def test_ukf_agrees_with_filterpy_on_van_der_pol(vdp_run):
-    """hgo's CD-UKF and filterpy's UKF (sigma points redrawn after predict, as hgo's) fed
-    the measurements hgo's filter took agree to 1e-6 at every instant."""
+    """hgo's CD-UKF and filterpy's UKF fed the measurements hgo's filter took agree to 1e-6
+    at every instant."""
     from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 
     system, traj = vdp_run
@@ -213,8 +213,7 @@ def test_ukf_agrees_with_filterpy_on_van_der_pol(vdp_run):
     y_col = obs.disc_names.index("y_y")
     worst = 0.0
     for k in range(1, len(traj.t)):
-        ref.predict()
-        ref.sigmas_f = points.sigma_points(ref.x, ref.P)  # redrawn: Q enters the update
+        ref.predict()  # (filterpy 2 redraws its sigma points from the prior, as hgo's)
         ref.update(traj.d[k, y_col:y_col + 1])
         worst = max(worst, float(np.abs(ref.x - traj.xh[k]).max()))
     assert worst < 1e-6

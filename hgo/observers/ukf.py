@@ -26,8 +26,8 @@ at t_1 = T; the measurement as in :mod:`hgo.observers.ekf`):
 and the sigma points start afresh from (x+, P+). The estimate x^ is sum Wm_i chi_i: the
 predicted mean between instants, x+ at an instant. Q is the covariance the process noise
 adds over one period, as for :func:`hgo.observers.ekf.ekf_cd` and filterpy's
-``UnscentedKalmanFilter`` (whose predict and update these are, with the sigma points
-redrawn after the prediction). A P- or P+ that is not positive definite (no Cholesky
+``UnscentedKalmanFilter`` (2.0: whose predict, sigma points redrawn from the prior
+included, and update these are; tests/test_kalman.py compares the two). A P- or P+ that is not positive definite (no Cholesky
 factor) makes the estimate non-finite: the run stops there, and says why in its status
 line (``Observer.explain``, as :mod:`hgo.observers.ekf`).
 """
