@@ -307,3 +307,18 @@ def test_default_r_is_the_noise_variance():
     uniform = {"kind": "uniform", "amplitude": 0.3, "period": 0.02, "channels": [0]}
     assert ukf("a", plant, noise=uniform).p.kf_R[0, 0] == pytest.approx(0.03)
     assert not math.isnan(ukf("a", plant, noise=uniform).p.kf_gamma)
+
+
+def test_ensemble_members_take_r_from_their_own_noise():
+    """experiment=vdp_kalman_noise (a grid over noise.std): each member's EKF and UKF get
+    R from that member's noise (std^2 * 1 ms and std^2), built without integrating."""
+    import hgo
+    from hgo.running.ensemble import build_members, member_nodes, plan_members
+
+    cfg = hgo.compose(["experiment=vdp_kalman_noise"])
+    plan = plan_members(cfg)
+    for std, system in zip(plan.values["noise.std"], build_members(member_nodes(
+            cfg, plan.values)), strict=True):
+        R = {o.name: o.p.kf_R[0, 0] for o in system.observers if o.name in ("ekf", "ukf")}
+        assert R["ekf"] == pytest.approx(std ** 2 * 1e-3, rel=1e-12)
+        assert R["ukf"] == pytest.approx(std ** 2, rel=1e-12)
