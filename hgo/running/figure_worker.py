@@ -239,12 +239,6 @@ def _serve(request_fd: int, reply_fd: int) -> None:
     data = _read_all(request_fd)
     if not data:
         return
-    # modules the parent generated into the kernel cache after this fork (a plant given by
-    # its equations, hgo.plants.symbolic_source): the result's functions name them, so the
-    # unpickling imports them from there
-    from hgo.engine.codegen import cache_dir
-
-    sys.path.append(str(cache_dir()))
     reply = _reply_of(lambda: _draw_on_two_cores(*pickle.loads(data)))
     _write_all(reply_fd, pickle.dumps(reply, protocol=pickle.HIGHEST_PROTOCOL))
 
