@@ -104,6 +104,7 @@ def _list(args: list[str]) -> int:
 
 
 def _observability(args: list[str]) -> int:
+    user_modules_importable()  # (a Python model named by _target_ in the current directory)
     from hgo.cli.observability import main
 
     return main(args)

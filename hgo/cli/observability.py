@@ -34,10 +34,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--config-dir", "-cd", type=Path, default=None,
                         help="a folder of your own groups and presets (as hgo run --config-dir)")
     args = parser.parse_args(argv)
-    from hgo.cli import user_modules_importable
     from hgo.core.errors import is_config_error, one_line
 
-    user_modules_importable()
     try:
         print(observability_report(args.overrides, args.config_dir))
     except Exception as err:

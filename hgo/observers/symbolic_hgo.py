@@ -31,6 +31,10 @@ and read its parameter values; the state they estimate is the plant's own x.
   (x^ there), ``newton_iterations``, ``inverse_residual`` (max|Phi(x^) - xi^|, for the
   symbolic inverse too), ``det_dPhi`` and ``min_abs_det_dPhi`` as above.
 
+Both take ``model_params`` (name -> value): plant parameters whose value their model
+replaces (a model error on purpose; the branch of Phi^-1 and the checks at x^(0) use the
+model's values too).
+
 The minimum of |det dPhi/dx(x^)| and the guard's step ends are metrics through the
 ``observability`` post-processor (:mod:`hgo.postprocess.observability`).
 """
@@ -217,8 +221,26 @@ def _xhat0(key: str, xhat0: Sequence[float] | None, plant: SymbolicPlant) -> np.
     return x0
 
 
-def _model_values(plant: SymbolicPlant) -> dict[str, float]:
-    return {f"{PREFIX}{name}": float(getattr(plant.p, name)) for name in plant.model.params}
+def _model_values(plant: SymbolicPlant, key: str = "observer",
+                  model_params: dict | None = None) -> dict[str, float]:
+    """The observer's model values (its record's ``plant_<name>``): the plant's, except
+    those ``model_params`` replaces (a model error on purpose)."""
+    values = {name: float(getattr(plant.p, name)) for name in plant.model.params}
+    for name, value in (model_params or {}).items():
+        if name not in values:
+            raise ConfigError(f"{key}.model_params.{name}", "is not a parameter of the plant",
+                              ", ".join(values) or None)
+        if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(
+                value):
+            raise ConfigError(f"{key}.model_params.{name}", f"must be a finite number, got "
+                              f"{value!r}")
+        values[name] = float(value)
+    return {f"{PREFIX}{name}": v for name, v in values.items()}
+
+
+def _symbols(plant: SymbolicPlant, model_values: dict[str, float]) -> dict:
+    """Parameter symbol -> the observer's model value."""
+    return {plant.model.symbols[k[len(PREFIX):]]: v for k, v in model_values.items()}
 
 
 def _check_singular(key: str, obs, values: dict, x: np.ndarray, what: str) -> float:
@@ -231,8 +253,9 @@ def _check_singular(key: str, obs, values: dict, x: np.ndarray, what: str) -> fl
 
 def hgo_original(name: str, plant: SymbolicPlant, eps: float = 0.05,
                  roots: Sequence[float] | None = None, xhat0: Sequence[float] | None = None,
-                 max_correction: float = 1e6) -> Observer:
-    """Khalil & Praly's observer in the plant's coordinates (module doc)."""
+                 max_correction: float = 1e6, model_params: dict | None = None) -> Observer:
+    """Khalil & Praly's observer in the plant's coordinates (module doc); ``model_params``
+    replace plant parameter values in its model (default: the plant's own)."""
     key = f"observer.{name}"
     obs = _derived(plant, key)
     n = obs.n
@@ -242,7 +265,8 @@ def hgo_original(name: str, plant: SymbolicPlant, eps: float = 0.05,
         raise ConfigError(f"{key}.max_correction", f"must be > 0 (inf: no guard), got "
                           f"{max_correction!r}")
     x0 = _xhat0(key, xhat0, plant)
-    det0 = _check_singular(key, obs, values_of(plant), x0, "x^(0)")
+    model_values = _model_values(plant, key, model_params)
+    det0 = _check_singular(key, obs, _symbols(plant, model_values), x0, "x^(0)")
     alpha = hurwitz_alpha(n, roots)
     fns = observer_functions(obs, None)
     constants = {"n": n, "alpha": tuple(alpha.tolist()), "model_f": fns.model_f,
@@ -253,7 +277,7 @@ def hgo_original(name: str, plant: SymbolicPlant, eps: float = 0.05,
                     estimated_states=list(range(n)), z0=x0,
                     d0=np.array([det0, abs(det0), 0.0, 0.0]),
                     p=Params(constants, eps=float(eps), max_correction=float(max_correction),
-                             **_model_values(plant)),
+                             **model_values),
                     f=original_f, update=original_update, estimate=original_estimate,
                     spectral_radius=radius, reads_inputs=list(range(len(plant.input_names))))
 
@@ -268,8 +292,10 @@ def hgo_normal_form(name: str, plant: SymbolicPlant, eps: float | None = None,
                     K: Sequence[Sequence[float]] | None = None,
                     saturation: float | Sequence[float] | None = None,
                     xhat0: Sequence[float] | None = None, inverse: str = "auto",
-                    newton_iters: int = 20, newton_tol: float = 1e-12) -> Observer:
-    """hgo's standard or low-power observer on xi = Phi(x) (module doc)."""
+                    newton_iters: int = 20, newton_tol: float = 1e-12,
+                    model_params: dict | None = None) -> Observer:
+    """hgo's standard or low-power observer on xi = Phi(x) (module doc); ``model_params``
+    replace plant parameter values in its model (default: the plant's own)."""
     key = f"observer.{name}"
     obs = _derived(plant, key)
     n = obs.n
@@ -280,7 +306,8 @@ def hgo_normal_form(name: str, plant: SymbolicPlant, eps: float | None = None,
     if not (isinstance(newton_iters, int) and newton_iters >= 1 and newton_tol > 0):
         raise ConfigError(f"{key}.newton_iters", f"newton_iters must be an integer >= 1 and "
                           f"newton_tol > 0, got {newton_iters!r}, {newton_tol!r}")
-    values = values_of(plant)
+    model_values = _model_values(plant, key, model_params)
+    values = _symbols(plant, model_values)
     x0 = _xhat0(key, xhat0, plant)
     det0 = _check_singular(key, obs, values, x0, "x^(0)")
     branch = None if inverse == "newton" else inverse_branch(obs, values, plant.x0)
@@ -288,7 +315,6 @@ def hgo_normal_form(name: str, plant: SymbolicPlant, eps: float | None = None,
         raise ConfigError(f"{key}.inverse", "SymPy found no inverse of Phi that maps Phi(x0) "
                           "back to x0", "auto, newton")
     fns = observer_functions(obs, branch)
-    model_values = _model_values(plant)
     xi0 = np.zeros(n)
     fns.phi_map(x0, _record(model_values), xi0)
     if (roots is not None and kind != "standard") or (K is not None and kind != "lowpower"):

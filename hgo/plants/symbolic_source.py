@@ -8,7 +8,9 @@ printed with SymPy's Python code printer (``math.*`` calls; small integer powers
 products, as a hand-written kernel has them) and written to ``hgo_symbolic_<hash>.py`` in
 the kernel cache folder (:func:`hgo.engine.codegen.cache_dir`): the engine names a kernel
 by the source files of its functions, so numba's on-disk cache of a kernel built from them
-is reused by later processes and never goes stale. Arguments and locals the printer makes
+is reused by later processes and never goes stale; the module is
+``hgo.plants.generated.hgo_symbolic_<hash>`` (:mod:`hgo.plants.generated`), importable in
+any process. Arguments and locals the printer makes
 start with ``_``, which no declared name may (:func:`hgo.plants.symbolic_text.check_name`).
 """
 
@@ -26,6 +28,9 @@ import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
 
 from hgo.engine.codegen import _atomic_write, cache_dir
+from hgo.plants import generated
+
+PACKAGE = generated.__name__
 
 
 class KernelPrinter(PythonCodePrinter):
@@ -99,7 +104,9 @@ def _import(text: str) -> ModuleType:
     path = cache_dir() / f"hgo_symbolic_{digest}.py"
     if not (path.exists() and path.read_text() == text):
         _atomic_write(path, text)
-    name = path.stem
+    name = f"{PACKAGE}.{path.stem}"  # importable elsewhere too (the package's doc)
+    if name in sys.modules:
+        return sys.modules[name]
     spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module

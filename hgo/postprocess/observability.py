@@ -20,7 +20,7 @@ from hgo.postprocess import PostOutput
 QUANTITIES = ("min_abs_det_dPhi", "guard_step_ends")
 
 
-class Observability:
+class ObservabilityMetrics:
     """Post-processor: the quantities of the module doc, one row each per observer."""
 
     def apply(self, system: System, traj: Trajectory) -> PostOutput:
@@ -34,6 +34,6 @@ class Observability:
         return PostOutput(rows=rows)
 
 
-def observability() -> Observability:
+def observability() -> ObservabilityMetrics:
     """Factory for the ``postprocess`` group."""
-    return Observability()
+    return ObservabilityMetrics()
