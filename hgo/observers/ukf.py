@@ -27,9 +27,10 @@ and the sigma points start afresh from (x+, P+). The estimate x^ is sum Wm_i chi
 predicted mean between instants, x+ at an instant. Q is the covariance the process noise
 adds over one period, as for :func:`hgo.observers.ekf.ekf_cd` and filterpy's
 ``UnscentedKalmanFilter`` (2.0: whose predict, sigma points redrawn from the prior
-included, and update these are; tests/test_kalman.py compares the two). A P- or P+ that is not positive definite (no Cholesky
-factor) makes the estimate non-finite: the run stops there, and says why in its status
-line (``Observer.explain``, as :mod:`hgo.observers.ekf`).
+included, and update these are; tests/test_kalman.py compares the two). A P- or P+ that
+is not positive definite (no Cholesky factor) makes the estimate non-finite: the run
+stops there, and says why in its status line (``Observer.explain``, as
+:mod:`hgo.observers.ekf`).
 """
 
 from __future__ import annotations
