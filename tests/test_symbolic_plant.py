@@ -192,21 +192,35 @@ def test_newton_finds_the_symbolic_inverse_and_phi0_from_the_last_estimate() -> 
 
 def test_the_guard_caps_the_correction_near_a_singular_jacobian_and_says_so() -> None:
     lv = _plant(LV)
-    obs = hgo_original("o", lv, eps=0.1, xhat0=[1.0, 2.0], max_correction=100.0)
-    p = obs.p
-    J, c = np.zeros((2, 2)), np.zeros(2)
-    det, scale = correction(np.array([1.0, 2.0]), 0.01, p, J, c)
-    assert det == pytest.approx(-0.5) and scale == 1.0  # c = J^-1 (2 e/eps, e/eps^2)
-    np.testing.assert_allclose(c, np.linalg.solve([[1.0, 0.0], [0.0, -0.5]], [0.2, 1.0]))
-    det, scale = correction(np.array([1e-6, 2.0]), 0.01, p, J, c)  # |c2| ~ 2e6 > 100
-    assert 0 < scale < 1e-4 and np.abs(c).max() == pytest.approx(100.0)
-    det, scale = correction(np.array([0.0, 2.0]), 0.01, p, J, c)  # singular: no correction
-    assert det == 0.0 and scale == 0.0 and not c.any()
+    obs = hgo_original("o", lv, eps=0.1, xhat0=[1.0, 2.0], max_correction=100.0, damping=0.0)
+    p, w = obs.p, np.zeros(12)  # scratch: 2 n^2 + 2 n
+    det, acted = correction(np.array([1.0, 2.0]), 0.01, p, w)
+    assert det == pytest.approx(-0.5) and acted == 0.0  # c = J^-1 (2 e/eps, e/eps^2)
+    np.testing.assert_allclose(w[4:6], np.linalg.solve([[1.0, 0.0], [0.0, -0.5]], [0.2, 1.0]))
+    det, acted = correction(np.array([1e-6, 2.0]), 0.01, p, w)  # |c2| ~ 2e6 > 100
+    assert acted == 1.0 and np.abs(w[4:6]).max() == pytest.approx(100.0)
+    det, acted = correction(np.array([0.0, 2.0]), 0.01, p, w)  # singular: no correction
+    assert det == 0.0 and acted == 1.0 and not w[4:6].any()
     d = obs.d0.copy()
     original_update(0.0, np.array([1e-6, 2.0]), d, np.array([0.01]), np.zeros(0), p)
     assert d[2] == 1.0 and d[3] == 1.0 and d[1] == pytest.approx(0.5e-6)
     original_update(0.0, np.array([1.0, 2.0]), d, np.array([1.0]), np.zeros(0), p)
     assert d[2] == 0.0 and d[3] == 1.0
+
+
+def test_damping_is_the_levenberg_marquardt_correction_and_continuous_through_det_0() -> None:
+    lv = _plant(LV)
+    mu = 0.05
+    obs = hgo_original("o", lv, eps=0.1, xhat0=[1.0, 2.0], damping=mu, max_correction=1e12)
+    w = np.zeros(12)
+    for x1 in (1.0, 1e-3, 0.0, -1e-3):
+        det, acted = correction(np.array([x1, 2.0]), 0.01, obs.p, w)
+        J = np.array([[1.0, 0.0], [1.0 - 0.5 * 2.0, -0.5 * x1]])
+        v = np.array([2 * 0.01 / 0.1, 0.01 / 0.01])
+        want = np.linalg.solve(J.T @ J + mu ** 2 * np.eye(2), J.T @ v)
+        np.testing.assert_allclose(w[4:6], want, rtol=1e-12)
+        assert acted == (1.0 if x1 != 1.0 else 0.0)  # far from x1 = 0: < 1 % change
+    assert abs(w[5]) < 1.0  # bounded through x1 = 0 (the plain inverse: 1 / (0.5 x1))
 
 
 def test_an_estimate_started_where_phi_is_singular_is_refused() -> None:

@@ -14,10 +14,19 @@ and read its parameter values; the state they estimate is the plant's own x.
 
   The correction c solves dPhi/dx(x^) c = E(eps) alpha (y - h(x^)) (Gaussian elimination
   with partial pivoting, :mod:`hgo.observers.small_lu`). **Guard** near a singular
-  Jacobian (the choice made here): a saturation of the correction, c -> c * M / max|c_i|
-  where max|c_i| > M = ``max_correction`` (its direction kept, its size capped; continuous
-  in x^), and c = 0 where dPhi/dx(x^) is exactly singular or c is not finite. The discrete
-  state records, at every step end: ``det_dPhi`` (det dPhi/dx(x^)), ``min_abs_det_dPhi``
+  Jacobian (the choices made here): with ``damping`` mu > 0 (default 1e-3), c is the
+  damped least-squares solution c = (J^T J + mu^2 I)^-1 J^T E alpha e, J = dPhi/dx(x^)
+  (Levenberg-Marquardt:
+  each singular value s of J acts as s / (s^2 + mu^2) <= 1 / (2 mu) instead of 1/s, and c
+  stays continuous through the singular set, where the plain inverse flips sign; far from
+  it, a change of O(mu^2 / s^2)); then a saturation, c -> c * M / max|c_i| where
+  max|c_i| > M = ``max_correction``; without damping, c = 0 where dPhi/dx(x^) is exactly
+  singular. The guard *acts* at a step end where the saturation caps c, the damping
+  changes it by more than 1 % of max|c_i|, or J is singular. Where x^ reaches the singular
+  set without damping, the sign flip of the correction there can hold x^ on it (sliding:
+  the adaptive step shrinks without end; a plant measured as y = x1 + 0.2 x2 of Van der
+  Pol did, at eps = 0.01). The discrete state records, at every step end: ``det_dPhi``
+  (det dPhi/dx(x^)), ``min_abs_det_dPhi``
   (its running minimum of |det| since t = 0), ``guard`` (1 where the guard acts at that
   step end, else 0) and ``guard_step_ends`` (how many step ends it acted at).
 
@@ -62,23 +71,50 @@ log = logging.getLogger(__name__)
 
 # ---------------------------------------------------------------------- kernel functions
 @record_helper
-def correction(x, e, p, J, c):
-    """c = [dPhi/dx(x)]^-1 E(eps) alpha e with the guard of the module doc; returns (det
-    dPhi/dx(x), the factor the guard scaled c by: 1.0 where it did not act)."""
+def correction(x, e, p, w):
+    """c = [dPhi/dx(x)]^-1 E(eps) alpha e with the guard of the module doc, into
+    w[n^2:n^2 + n] (``w``: the observer's scratch, 2 n^2 + 2 n floats); returns (det
+    dPhi/dx(x), 1.0 where the guard acted, else 0.0)."""
     n = p.n
+    J = matrix_view(w, 0, n, n)
+    c = w[n * n:n * n + n]
     p.phi_jac(x, p, J)
     g = 1.0
     for i in range(n):
         g /= p.eps
         c[i] = p.alpha[i] * g * e
+    damped = p.damping > 0.0
+    if damped:  # M = J^T J + mu^2 I, b = J^T v (before J is factored)
+        M = matrix_view(w, n * n + n, n, n)
+        b = w[2 * n * n + n:2 * n * n + 2 * n]
+        for i in range(n):
+            b[i] = 0.0
+            for k in range(n):
+                b[i] += J[k, i] * c[k]
+            for j in range(n):
+                s = p.damping * p.damping if i == j else 0.0
+                for k in range(n):
+                    s += J[k, i] * J[k, j]
+                M[i, j] = s
     det = lu_solve(J, c, n)
+    acted = det == 0.0
+    if damped:
+        lu_solve(M, b, n)
+        big, off = max_abs(c, n), 0.0
+        for i in range(n):
+            off = max(off, abs(b[i] - c[i]))
+            c[i] = b[i]
+        acted = acted or not off <= 0.01 * big
+    elif acted:
+        for i in range(n):
+            c[i] = 0.0
     big = max_abs(c, n)
-    if det != 0.0 and big <= p.max_correction:
-        return det, 1.0
-    scale = p.max_correction / big if det != 0.0 and math.isfinite(big) else 0.0
-    for i in range(n):
-        c[i] = c[i] * scale if scale > 0.0 else 0.0
-    return det, scale
+    if not big <= p.max_correction:
+        scale = p.max_correction / big if math.isfinite(big) else 0.0
+        for i in range(n):
+            c[i] = c[i] * scale if scale > 0.0 else 0.0
+        acted = True
+    return det, 1.0 if acted else 0.0
 
 
 def original_f(t, z, d, y, u, p, dz):
@@ -86,22 +122,18 @@ def original_f(t, z, d, y, u, p, dz):
     n = p.n
     p.model_f(t, z, u, p, dz)
     w = p.scratch
-    c = w[n * n:n * n + n]
-    correction(z, y[0] - p.model_h0(z, p), p, matrix_view(w, 0, n, n), c)
+    correction(z, y[0] - p.model_h0(z, p), p, w)
     for i in range(n):
-        dz[i] += c[i]
+        dz[i] += w[n * n + i]
 
 
 def original_update(t, z, d, y, u, p):
     """det dPhi/dx(x^), its running minimum of |det|, the guard's flag and count."""
-    n = p.n
-    w = p.scratch
-    det, scale = correction(z, y[0] - p.model_h0(z, p), p, matrix_view(w, 0, n, n),
-                            w[n * n:n * n + n])
+    det, acted = correction(z, y[0] - p.model_h0(z, p), p, p.scratch)
     d[0] = det
     d[1] = min(d[1], abs(det))
-    d[2] = 1.0 if scale < 1.0 else 0.0
-    d[3] += d[2]
+    d[2] = acted
+    d[3] += acted
 
 
 def original_estimate(t, z, d, p, xhat):
@@ -253,7 +285,8 @@ def _check_singular(key: str, obs, values: dict, x: np.ndarray, what: str) -> fl
 
 def hgo_original(name: str, plant: SymbolicPlant, eps: float = 0.05,
                  roots: Sequence[float] | None = None, xhat0: Sequence[float] | None = None,
-                 max_correction: float = 1e6, model_params: dict | None = None) -> Observer:
+                 max_correction: float = 1e6, damping: float = 1e-3,
+                 model_params: dict | None = None) -> Observer:
     """Khalil & Praly's observer in the plant's coordinates (module doc); ``model_params``
     replace plant parameter values in its model (default: the plant's own)."""
     key = f"observer.{name}"
@@ -264,19 +297,23 @@ def hgo_original(name: str, plant: SymbolicPlant, eps: float = 0.05,
     if not (isinstance(max_correction, int | float) and max_correction > 0):
         raise ConfigError(f"{key}.max_correction", f"must be > 0 (inf: no guard), got "
                           f"{max_correction!r}")
+    if not (isinstance(damping, int | float) and math.isfinite(damping) and damping >= 0):
+        raise ConfigError(f"{key}.damping", f"must be a number >= 0 (0: none), got {damping!r}")
     x0 = _xhat0(key, xhat0, plant)
     model_values = _model_values(plant, key, model_params)
     det0 = _check_singular(key, obs, _symbols(plant, model_values), x0, "x^(0)")
     alpha = hurwitz_alpha(n, roots)
     fns = observer_functions(obs, None)
     constants = {"n": n, "alpha": tuple(alpha.tolist()), "model_f": fns.model_f,
-                 "model_h0": fns.model_h0, "phi_jac": fns.phi_jac, "scratch": n * n + n}
+                 "model_h0": fns.model_h0, "phi_jac": fns.phi_jac,
+                 "scratch": 2 * n * n + 2 * n}
     radius = float(np.max(np.abs(np.roots(np.concatenate([[1.0], alpha]))))) / eps
     return Observer(name=name, state_names=[f"{s}_hat" for s in plant.state_names],
                     disc_names=["det_dPhi", "min_abs_det_dPhi", "guard", "guard_step_ends"],
                     estimated_states=list(range(n)), z0=x0,
                     d0=np.array([det0, abs(det0), 0.0, 0.0]),
                     p=Params(constants, eps=float(eps), max_correction=float(max_correction),
+                             damping=float(damping),
                              **model_values),
                     f=original_f, update=original_update, estimate=original_estimate,
                     spectral_radius=radius, reads_inputs=list(range(len(plant.input_names))))

@@ -12,8 +12,9 @@ naming that Lie derivative. Where dPhi/dx is singular, Phi is no local change of
 coordinates: :func:`derive` factors det dPhi/dx and solves each factor for a state (the
 singular set), and :func:`report` prints it with the value at x0.
 
-Phi^-1 is asked of SymPy (``solve``, within ``INVERSE_SECONDS`` where a timer can stop it);
-of several solutions the one that maps Phi(x0) back to x0 is taken (:func:`inverse_branch`).
+Phi^-1 is asked of SymPy (``solve``, within ``INVERSE_SECONDS`` where a timer can stop it;
+real, not too long: ``MAX_INVERSE_OPS``); of several solutions the one that maps Phi(x0)
+back to x0 is taken (:func:`inverse_branch`).
 Without one, phi0 stays a function of x and the observer inverts Phi numerically (Newton,
 :mod:`hgo.observers.symbolic_hgo`).
 """
@@ -35,6 +36,10 @@ from hgo.plants.symbolic import SymbolicModel, SymbolicPlant
 
 INVERSE_SECONDS = 10
 """How long SymPy may look for Phi^-1 (where a timer can stop it: the main thread)."""
+MAX_INVERSE_OPS = 400
+"""A solution with more operations than this, or with complex intermediates (Cardano's
+formula: ``I`` in a real root), is left to Newton's method: it would cost more than the
+iterations and could not be compiled as real arithmetic."""
 
 
 @dataclass(frozen=True)
@@ -129,7 +134,8 @@ def _inverses(phi: tuple, x: tuple, xi: tuple) -> tuple[tuple[sp.Expr, ...], ...
     except (NotImplementedError, TimeoutError, ValueError, TypeError):
         return ()
     return tuple(tuple(sol[s] for s in x) for sol in found if all(s in sol for s in x)
-                 and not any(v.free_symbols & set(x) for v in sol.values()))
+                 and not any(v.free_symbols & set(x) or v.has(sp.I)
+                             or sp.count_ops(v) > MAX_INVERSE_OPS for v in sol.values()))
 
 
 @contextmanager
@@ -209,7 +215,7 @@ def report(plant: SymbolicPlant) -> str:
         lines.append(f"Phi^-1: {found} (the observers invert Phi by Newton iterations); "
                      "phi0 = L_f^n h evaluated at x = Phi^-1(xi)")
     else:
-        lines += ["Phi^-1(xi):"] + [f"  {s} = {sp.simplify(v).xreplace(xi_names)}"
+        lines += ["Phi^-1(xi):"] + [f"  {s} = {_readable(v).xreplace(xi_names)}"
                                     for s, v in zip(model.states, branch, strict=True)]
         lines.append(f"phi0(xi, u) = {_readable(obs.phi0(branch)).xreplace(xi_names)}")
     return "\n".join(lines)
