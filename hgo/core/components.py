@@ -29,6 +29,8 @@ Function signatures (arrays are float64, outputs are written in place):
   ``estimated_states``; optional ``stiffness(t, z, d, p) -> float`` — the spectral radius
   of the active dynamics (bounds the RK4 step; default: the constant ``spectral_radius``).
 * Controller ``u(t, xhat, y, p, u)`` — input computed from one observer's estimate.
+* Observer: ``sample_period`` > 0 — its measurement instants k * sample_period are break
+  points too (its ``update`` then runs exactly there, after the step that ends there).
 * Plant and controller: optional ``breaks(p) -> sequence of float`` — the instants where
   the component's time dependence jumps (an input schedule's switches, a ramp's corners),
   from its own parameters. The engine ends a step exactly at each one, evaluates the step
@@ -402,6 +404,13 @@ class Observer(Named):
     # the plant when the system is composed (compiled code never reads past an array)
     reads_outputs: list[int] = field(default_factory=lambda: [0])
     reads_inputs: list[int] = field(default_factory=list)
+    # > 0: a sampled observer (e.g. a continuous-discrete Kalman filter): the engine ends a
+    # step at every k * sample_period in (0, t_end), so ``update`` runs at each instant
+    sample_period: float = 0.0
+    # optional ``explain(d) -> str``: why a run stopped, read from this observer's discrete
+    # state at the stop ("" if not its doing), e.g. a Kalman filter's covariance no longer
+    # positive definite; appended to the run's one-line status
+    explain: object = None
 
     @property
     def nz(self) -> int:

@@ -161,6 +161,7 @@ class Trajectory:
     t_stop: float
     acc: np.ndarray  # window metrics (System.n_acc): integrals, max norms, window length
     dense: DenseRun | None = None  # the steps (SolverSettings.dense_steps, adaptive methods)
+    reason: str = ""  # why it stopped, from an observer's ``explain`` (Observer), if any
 
     @property
     def ok(self) -> bool:
@@ -168,7 +169,7 @@ class Trajectory:
 
     @property
     def message(self) -> str:
-        return STATUS[self.status]
+        return STATUS[self.status] + (f" ({self.reason})" if self.reason else "")
 
 
 @dataclass
@@ -382,8 +383,9 @@ def simulate(system: System, solver: SolverSettings, noise: Noise,
         steps, ctl = np.empty((cap, _step_width(system, solver.method) if keep else 0)), \
             _control(solver)
         acc = np.zeros(system.n_acc())
+        d = system.d0()  # (the discrete state at the stop, for the observers' explain)
         status, n_rec, t_stop = _call(
-            system, solver.method, "integrate", z.copy(), system.d0(), P,
+            system, solver.method, "integrate", z.copy(), d, P,
             np.ascontiguousarray(noise.samples, float), args[0], breaks, *args[1:], t[:, 0],
             *rec, acc, steps, ctl, noisy=noisy)
         if ctl[2] <= cap:
@@ -394,7 +396,16 @@ def simulate(system: System, solver: SolverSettings, noise: Noise,
     Z, D, Y, M, U, XH = (a[:n_rec] for a in rec)
     dense = DenseRun(system, [StepRecord(system, solver.method, P, steps[:ctl[2]], noisy)]) \
         if keep else None
-    return Trajectory(t, Z, D, Y, M, U, XH, int(status), float(t_stop), acc, dense)
+    return Trajectory(t, Z, D, Y, M, U, XH, int(status), float(t_stop), acc, dense,
+                      stop_reason(system, d) if status != 0 else "")
+
+
+def stop_reason(system: System, d: np.ndarray) -> str:
+    """What the observers with an ``explain`` hook read in the discrete state ``d`` at a
+    run's stop ("" when none explains it)."""
+    found = [o.explain(d[a:b]) for o, (a, b) in zip(system.observers, system.d_slices,
+                                                    strict=True) if o.explain is not None]
+    return "; ".join(r for r in found if r)
 
 
 def _steps_guess(solver: SolverSettings, noise: Noise) -> int:

@@ -154,13 +154,18 @@ class System:
 
     def breaks(self, P: np.ndarray, t_end: float) -> np.ndarray:
         """The sorted instants in (0, t_end) where the plant or the controller declares a
-        jump (their ``breaks(p)`` hooks, with their slices of the parameter vector ``P``):
-        the integrators end a step at each one."""
+        jump (their ``breaks(p)`` hooks, with their slices of the parameter vector ``P``)
+        and the measurement instants of sampled observers (``sample_period``): the
+        integrators end a step at each one."""
         parts = [(self.plant, self.p_slices[0])]
         if self.controller is not None:
             parts.append((self.controller, self.p_slices[-1]))
         found = [float(b) for comp, (a, e) in parts if comp.breaks is not None
                  for b in comp.breaks(named(comp, P[a:e]))]
+        for o in self.observers:  # a sampled observer's instants k * T (k * T exactly)
+            if o.sample_period > 0:
+                found += (np.arange(1, int(t_end / o.sample_period) + 1)
+                          * o.sample_period).tolist()
         return np.array(sorted({b for b in found if 0.0 < b < t_end}), float)
 
     def spectral_radius(self) -> float:
