@@ -137,7 +137,7 @@ def test_param_vector_answers_to_names_and_survives_pickling():
 
 @pytest.mark.parametrize(("constants", "values", "match"), [
     ({}, {"max": 1.0}, "taken by numpy"),
-    ({"n": 2}, {"n": 1.0}, "values and constants"),
+    ({"n": 2}, {"n": 1.0}, "both as run-time values and as compile-time constants"),
     ({"c": "text"}, {}, "not a number"),
 ])
 def test_params_refuses_bad_names_and_constants(constants, values, match):
