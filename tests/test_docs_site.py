@@ -21,9 +21,11 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 # pages that must have rendered maths; any other page with maths is checked the same way
-# (add the own-plant tutorial here once its equations are final)
-MATHS_PAGES = ["tutorials/sweep", "reference/observers", "reference/components"]
+MATHS_PAGES = ["tutorials/own-plant", "tutorials/own-coordinates", "tutorials/sweep",
+               "reference/observers", "reference/components"]
 SCREENS = {"tutorials/own-plant": "docs-tutorial-own-plant.png",
+           "tutorials/own-coordinates": "docs-tutorial-own-coordinates.png",
+           "tutorials/kalman": "docs-tutorial-kalman.png",
            "tutorials/sweep": "docs-tutorial-sweep.png",
            "reference/observers": "docs-reference-observers.png"}  # standard_hgo first
 WIDTH = 1400
@@ -143,6 +145,8 @@ EXAMPLE = re.compile(r"```python\n(.*?)```", re.S)
 PRINTED = re.compile(r"^\s*print\(.*\)\s+# (.*)$", re.M)
 # what the reference must show with a runnable example (issue 44)
 MUST_HAVE_EXAMPLES = {"hgo.core.components.Plant", "hgo.core.components.Params",
+                      "hgo.plants.symbolic", "hgo.observers.symbolic_hgo",
+                      "hgo.observers.ekf", "hgo.observers.ukf",
                       "hgo.observers.normal_form.standard_hgo",
                       "hgo.observers.normal_form.lowpower_hgo",
                       "hgo.observers.circle_criterion.circle_criterion_observer",

@@ -52,7 +52,10 @@ FILE_NAMES = re.compile(r"save|load|file|txt|memmap|datasource|fromregex|open|wr
 #: reports and sweep callbacks (never its command line, API or file helpers: ``hgo.cli.main``
 #: with ``--allow-targets`` would widen the rule, ``hgo.cli.runs.export`` writes any path).
 HGO_MODULES = ("hgo.plants", "hgo.observers", "hgo.controllers", "hgo.noise",
-               "hgo.postprocess", "hgo.papers", "hgo.running.aggregate")
+               "hgo.postprocess", "hgo.papers", "hgo.running.aggregate",
+               # the figures and reports of the generic presets (they draw into the run's
+               # own folder)
+               "hgo.outputs.estimate_figures", "hgo.outputs.observer_comparison")
 CALLBACK_MODULES = ("hgo", "hydra_plugins", "hydra.experimental.callbacks")
 LOGGING_MODULES = ("logging", "colorlog")
 

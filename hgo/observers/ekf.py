@@ -37,6 +37,19 @@ no longer positive definite (smallest eigenvalue ...))" (``Observer.explain``).
   t_k (a sample held over [t_(k-1), t_k) when T is the noise period: each instant gets
   its own sample; a first update at t = 0 would share t_1's). It is kept in the discrete
   state (``y_<output>``), with the index k of the next instant (``sample``).
+
+Example:
+    ```python
+    from hgo.observers.ekf import ekf, ekf_cd
+    from hgo.plants.van_der_pol import van_der_pol_plant
+
+    vdp = van_der_pol_plant(mu=1.0)
+    filt = ekf("ekf", plant=vdp, Q=0.0, R=1e-6, P0=1.0)
+    print(filt.state_names[2:])  # ['P_x1_x1', 'P_x1_x2', 'P_x2_x2']
+    print(ekf_cd("cd", plant=vdp, R=1e-6, sample_period=0.01).sample_period)  # 0.01
+    ```
+
+    In a config: ``observer=ekf`` or ``observer=ekf_cd`` (``conf/observer/``).
 """
 
 from __future__ import annotations

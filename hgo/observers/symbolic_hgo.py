@@ -46,6 +46,21 @@ model's values too).
 
 The minimum of |det dPhi/dx(x^)| and the guard's step ends are metrics through the
 ``observability`` post-processor (:mod:`hgo.postprocess.observability`).
+
+Example:
+    ```python
+    from hgo.observers.symbolic_hgo import hgo_normal_form, hgo_original
+    from hgo.plants.symbolic import symbolic_plant
+
+    lv = symbolic_plant(states=["x1", "x2"], params={"a": 1.0, "b": 0.5, "c": 0.5, "d": 1.0},
+                        f={"x1": "a*x1 - b*x1*x2", "x2": "c*x1*x2 - d*x2"},
+                        h={"y": "x1"}, x0=[2.0, 1.0])
+    original = hgo_original("original", plant=lv, eps=0.05, xhat0=[1.0, 2.0])
+    normal = hgo_normal_form("normal", plant=lv, eps=0.05, xhat0=[1.0, 2.0])
+    print(original.state_names, normal.state_names)  # ['x1_hat', 'x2_hat'] ['xhat1', 'xhat2']
+    ```
+
+    In a config: ``observer=[hgo_original,hgo_normal_form]`` (``conf/observer/``).
 """
 
 from __future__ import annotations

@@ -31,6 +31,17 @@ included, and update these are; tests/test_kalman.py compares the two). A P- or 
 is not positive definite (no Cholesky factor) makes the estimate non-finite: the run
 stops there, and says why in its status line (``Observer.explain``, as
 :mod:`hgo.observers.ekf`).
+
+Example:
+    ```python
+    from hgo.observers.ukf import ukf
+    from hgo.plants.van_der_pol import van_der_pol_plant
+
+    filt = ukf("ukf", plant=van_der_pol_plant(mu=1.0), R=1e-6, sample_period=0.01)
+    print(len(filt.state_names), filt.sample_period)  # 10 0.01
+    ```
+
+    In a config: ``observer=ukf`` (``conf/observer/ukf.yaml``).
 """
 
 from __future__ import annotations

@@ -24,6 +24,18 @@ also carries its :class:`SymbolicModel`, from which :mod:`hgo.plants.observabili
 derives the observability map and the observers of :mod:`hgo.observers.symbolic_hgo`
 their model. Time does not enter the equations (``t`` is reserved): inputs come from the
 ``controller`` group.
+
+Example:
+    ```python
+    from hgo.plants.symbolic import symbolic_plant
+
+    lv = symbolic_plant(states=["x1", "x2"], params={"a": 1.0, "b": 0.5, "c": 0.5, "d": 1.0},
+                        f={"x1": "a*x1 - b*x1*x2", "x2": "c*x1*x2 - d*x2"},
+                        h={"y": "x1"}, x0=[2.0, 1.0])
+    print(lv.state_names, lv.output_names, lv.p.a)  # ['x1', 'x2'] ['y'] 1.0
+    ```
+
+    In a config: ``plant=symbolic`` with the same keys (``conf/plant/lotka_volterra.yaml``).
 """
 
 from __future__ import annotations
