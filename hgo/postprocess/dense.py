@@ -30,6 +30,7 @@ the same functions, measured on the grid.
 from __future__ import annotations
 
 import math
+import weakref
 from collections.abc import Callable
 from dataclasses import dataclass
 from types import MethodType
@@ -51,8 +52,8 @@ XTOL = 1e-12  # seconds: the crossing instants' tolerance
 QTOL = 1e-9
 MAX_HALVINGS = 12
 # steps a window is sampled at a time (Window): ~4 scan points and 6 half-step Gauss nodes
-# a step, ~21 signal columns each: ~30 MB of samples a chunk for dhlm_example
-CHUNK_STEPS = 1 << 14
+# a step, 17 signal columns each for dhlm_example: ~11 MB of samples a chunk
+CHUNK_STEPS = 1 << 13
 
 
 class GridRun:
@@ -99,8 +100,8 @@ def _cached(run, key: tuple, make: Callable[[], tuple]) -> tuple:
 
 
 def release(run: DenseRun, a: float, b: float) -> None:
-    """Drop what is kept for the window [a, b] (its step ends, scan points and, for a window
-    of one chunk, its samples): a post-processor done with a window frees them. Asked for
+    """Drop what is kept for the window [a, b] (its step ends; for a window of one chunk, its
+    scan points and samples): a post-processor done with a window frees them. Asked for
     again, they are computed again, the same."""
     cache = run.__dict__.get("_dense_samples", {})
     for kind in ("edges", "scan", "samples"):
@@ -118,13 +119,15 @@ def _gauss_nodes(lo: np.ndarray, width: np.ndarray) -> np.ndarray:
 
 
 def _scan_points(run: DenseRun, a: float, b: float) -> np.ndarray:
-    """The scan points of [a, b]: the step ends and each step's Gauss nodes, sorted (kept
-    per run and window: 8 bytes each, 4 a step)."""
+    """The scan points of [a, b]: the step ends and each step's Gauss nodes, sorted (8 bytes
+    each, 4 a step: kept on the run for a window of one chunk, whose samples are kept too)."""
     def make():
         edges = _edges(run, a, b)
         return (np.union1d(edges, _gauss_nodes(edges[:-1], np.diff(edges))),)
 
-    return _cached(run, ("scan", a, b), make)[0]
+    if _edges(run, a, b).size - 1 <= CHUNK_STEPS:
+        return _cached(run, ("scan", a, b), make)[0]
+    return make()[0]
 
 
 @dataclass
@@ -204,8 +207,8 @@ class Window:
         return self._ask(_Values(signal))
 
     def size(self) -> int:
-        """The window's scan points."""
-        return _scan_points(self.run, self.a, self.b).size
+        """The window's scan points, at most (4 a step, and b)."""
+        return 4 * (_edges(self.run, self.a, self.b).size - 1) + 1
 
     def measure(self) -> None:
         """Measure every metric asked for and not yet measured, in one pass."""
@@ -549,19 +552,20 @@ class Remembering:
 class LastValue:
     """``fn(samples)`` remembered for the last samples of more than one instant it was
     called with (by identity): for a quantity with several columns whose maxima are
-    measured one column after the other on the same scan (each column's signal computes
-    the whole quantity; :func:`maximum`'s refinement between, at single instants, is
-    computed afresh and does not replace the scan's value)."""
+    measured one column after the other on the same scan or chunk of it (each column's
+    signal computes the whole quantity; :func:`maximum`'s refinement between, at single
+    instants, is computed afresh and does not replace the scan's value). The samples are
+    referred to weakly (a window's last chunk is not kept alive by it)."""
 
     def __init__(self, fn: Callable[[Trajectory], np.ndarray]) -> None:
-        self.fn, self.samples, self.value = fn, None, None
+        self.fn, self.samples, self.value = fn, lambda: None, None
 
     def __call__(self, samples: Trajectory) -> np.ndarray:
-        if samples is self.samples:
+        if samples is self.samples():
             return self.value
         value = self.fn(samples)
         if len(samples.t) > 1:
-            self.samples, self.value = samples, value
+            self.samples, self.value = weakref.ref(samples), value
         return value
 
 

@@ -47,13 +47,14 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass, field
+from types import SimpleNamespace
 
 import numpy as np
 
 from hgo.engine.simulate import SolverSettings, Trajectory, no_noise, simulate
 from hgo.engine.system import System
 from hgo.observers import adaptive_cascade as ac
-from hgo.outputs.recording import Series
+from hgo.outputs.recording import Derived, Series
 from hgo.plants.robot_arm import dimassi_psi
 from hgo.postprocess import PostOutput, dense
 from hgo.postprocess.dense import steps_of
@@ -139,6 +140,39 @@ class _Signals:
         """z - z_h (z - z^s for the ideal observer)."""
         z = self.x(s) @ self.blk["H"].T
         return z - (self.zs(s) if self.blk["ideal"] > 0.5 else self.zh(s))
+
+    def V(self, s: Trajectory, P: np.ndarray, theta: np.ndarray) -> np.ndarray:
+        """V of (18): e' P e + |theta - theta^|^2 / delta."""
+        e, err_th = self.e(s), theta - self.th(s)
+        return (np.einsum("ti,ij,tj->t", e, P, e)
+                + np.sum(err_th ** 2, axis=1) / self.blk["delta"])
+
+
+@dataclass(frozen=True)
+class _Series:
+    """A series of one observer from rows of the run's z and y, computed when they are read
+    (:class:`hgo.outputs.recording.Derived`): ``saturated`` (z_h^s), ``aux`` (z = H x),
+    ``theta_error`` (th^ - theta), ``lyapunov`` ([V, R^2])."""
+
+    sig: _Signals
+    what: str
+    theta: np.ndarray
+    P: np.ndarray | None = None
+    R2: float = math.nan
+
+    def __call__(self, z: np.ndarray, y: np.ndarray) -> np.ndarray:
+        s, sig = SimpleNamespace(z=z, y=y), self.sig
+        if self.what == "saturated":
+            return sig.zs(s)
+        if self.what == "aux":
+            return sig.x(s) @ sig.blk["H"].T
+        if self.what == "theta_error":
+            return sig.th(s) - self.theta
+        V = sig.V(s, self.P, self.theta)
+        return np.column_stack([V, np.full_like(V, self.R2)])
+
+    def of(self, traj: Trajectory, columns: int) -> Derived:
+        return Derived(self, (traj.z, traj.y), columns)
 
 
 def psi_rows(p, xa: np.ndarray, u: np.ndarray) -> np.ndarray:
@@ -229,13 +263,14 @@ class DHLMMetrics:
         n, nn, nq = sig.sizes
         theta = self.true_theta(system)
         zn = obs.state_names[:nn]
-        out.series += [
+        out.series += [  # (computed when read: none of the run's length held here)
             Series(f"/observer/{name}/hgo/raw", zn, sig.zh(traj)),
-            Series(f"/observer/{name}/hgo/saturated", [f"{s}_sat" for s in zn], sig.zs(traj)),
+            Series(f"/observer/{name}/hgo/saturated", [f"{s}_sat" for s in zn],
+                   _Series(sig, "saturated", theta).of(traj, nn)),
             Series(f"/observer/{name}/aux", [f"z{s[2:]}" for s in zn],
-                   sig.x(traj) @ blk["H"].T),
+                   _Series(sig, "aux", theta).of(traj, nn)),
             Series(f"/observer/{name}/theta_error", [f"theta_err{i + 1}" for i in range(nq)],
-                   sig.th(traj) - theta)]
+                   _Series(sig, "theta_error", theta).of(traj, nq))]
         run, T = steps_of(traj), traj.t_stop
         win = _Windows(dense.Window(run, 0.0, T), dense.Window(run, self.T_eps_factor
                                                                * blk["eps"], T),
@@ -427,12 +462,7 @@ class DHLMMetrics:
         u_max = win.whole.maximum(lambda s: np.max(np.abs(s.u), axis=1)).then(lambda m: m[0])
         h_each = self._h_max(system, blk, win.whole, int(blk["N"]))
 
-        def lyapunov(s: Trajectory) -> np.ndarray:  # V of (18)
-            e, err_th = sig.e(s), theta - sig.th(s)
-            return (np.einsum("ti,ij,tj->t", e, chk.P, e)
-                    + np.sum(err_th ** 2, axis=1) / blk["delta"])
-
-        max_V = win.after_T_eps.maximum(lyapunov).then(lambda m: m[0])
+        max_V = win.after_T_eps.maximum(lambda s: sig.V(s, chk.P, theta)).then(lambda m: m[0])
 
         @functools.cache
         def bounds() -> tuple:
@@ -454,9 +484,8 @@ class DHLMMetrics:
         rows += [("R2_beta_analytic", lambda: bounds()[3].R2, None),
                  ("max_V_after_T_eps", max_V,
                   lambda: bounds()[4].R2 if math.isfinite(bounds()[4].R2) else None)]
-        V = lyapunov(traj)
-        out.series.append(Series(f"/observer/{obs.name}/lyapunov", ["V", "R2"],
-                                 np.column_stack([V, np.full_like(V, bounds()[4].R2)])))
+        out.series.append(Series(f"/observer/{obs.name}/lyapunov", ["V", "R2"], _Series(
+            sig, "lyapunov", theta, chk.P, bounds()[4].R2).of(traj, 2)))
         return rows
 
 
