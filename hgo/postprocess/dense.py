@@ -120,10 +120,15 @@ def _gauss_nodes(lo: np.ndarray, width: np.ndarray) -> np.ndarray:
 
 def _scan_points(run: DenseRun, a: float, b: float) -> np.ndarray:
     """The scan points of [a, b]: the step ends and each step's Gauss nodes, sorted (8 bytes
-    each, 4 a step: kept on the run for a window of one chunk, whose samples are kept too)."""
+    each, 4 a step: kept on the run for a window of one chunk, whose samples are kept too).
+    Each step's nodes lie inside it, so they are its end and nodes in turn (``np.union1d``
+    where rounding makes two points meet: a step of a few ulp)."""
     def make():
         edges = _edges(run, a, b)
-        return (np.union1d(edges, _gauss_nodes(edges[:-1], np.diff(edges))),)
+        nodes = _gauss_nodes(edges[:-1], np.diff(edges))
+        ts = np.empty(edges.size + nodes.size)
+        ts[::4], ts[1::4], ts[2::4], ts[3::4] = edges, nodes[::3], nodes[1::3], nodes[2::3]
+        return (ts if np.all(ts[1:] > ts[:-1]) else np.union1d(edges, nodes),)
 
     if _edges(run, a, b).size - 1 <= CHUNK_STEPS:
         return _cached(run, ("scan", a, b), make)[0]
