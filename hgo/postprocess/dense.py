@@ -221,14 +221,17 @@ class Window:
         if not todo:
             return
         ts = _scan_points(self.run, self.a, self.b)
+        steps = _edges(self.run, self.a, self.b).size - 1
         for request in todo:
-            request.start(ts)
+            request.start(ts, steps)
         halves = any(r.integrates for r in todo)
         for chunk in self._chunks(ts, halves):
             for request in todo:
                 request.update(chunk)
         for request in todo:
             request.finish(self.run, ts)
+        if steps > CHUNK_STEPS:  # (a window of one chunk keeps its samples for the next)
+            release(self.run, self.a, self.b)
 
     def _chunks(self, ts: np.ndarray, halves: bool):
         edges = _edges(self.run, self.a, self.b)
@@ -286,15 +289,15 @@ class Pending:
 
 
 class _Request:
-    """One metric of a window: ``start(ts)`` (the window's scan points), ``update(chunk)``
-    per chunk in order, ``finish(run, ts)`` sets ``result``."""
+    """One metric of a window: ``start(ts, steps)`` (the window's scan points and number of
+    steps), ``update(chunk)`` per chunk in order, ``finish(run, ts)`` sets ``result``."""
 
     integrates = False
 
     def __init__(self, signal: Signal) -> None:
         self.signal, self.done, self.result = signal, False, None
 
-    def start(self, ts: np.ndarray) -> None:
+    def start(self, ts: np.ndarray, steps: int) -> None:
         pass
 
     def values(self, chunk: _Chunk) -> np.ndarray:
@@ -314,7 +317,7 @@ class _Request:
 class _Maximum(_Request):
     """The first largest scan point (NaN first, as ``np.argmax``), refined."""
 
-    def start(self, ts: np.ndarray) -> None:
+    def start(self, ts: np.ndarray, steps: int) -> None:
         self.k, self.best = -1, -math.inf
 
     def update(self, chunk: _Chunk) -> None:
@@ -342,17 +345,18 @@ class _Integral(_Request):
 
     integrates = True
 
-    def start(self, ts: np.ndarray) -> None:
-        self.pieces = []
+    def start(self, ts: np.ndarray, steps: int) -> None:
+        self.pieces = np.zeros(steps)
 
     def update(self, chunk: _Chunk) -> None:
         gauss = np.asarray(self.signal(chunk.s), float)[chunk.at]
         whole = (gauss.reshape(chunk.lo.size, 3) @ WEIGHTS01) * chunk.width
-        self.pieces.append(_refine(chunk.run, self.signal, chunk.lo, chunk.width, whole,
-                                   chunk.halves))
+        self.pieces[chunk.p0:chunk.p0 + chunk.lo.size] = _refine(
+            chunk.run, self.signal, chunk.lo, chunk.width, whole, chunk.halves)
 
     def outcome(self, run: DenseRun, ts: np.ndarray) -> float:
-        return float(np.sum(np.concatenate(self.pieces))) if self.pieces else 0.0
+        pieces, self.pieces = self.pieces, None
+        return float(np.sum(pieces))
 
 
 class _SettlesBelow(_Request):
@@ -406,14 +410,14 @@ class _FractionAbove(_Request):
         super().__init__(signal)
         self.level = level
 
-    def start(self, ts: np.ndarray) -> None:
+    def start(self, ts: np.ndarray, steps: int) -> None:
         self.up = np.zeros(ts.size, bool)
 
     def update(self, chunk: _Chunk) -> None:
         self.up[chunk.j0:chunk.j0 + chunk.own] = self.values(chunk) > self.level
 
     def outcome(self, run: DenseRun, ts: np.ndarray) -> float:
-        up, dt = self.up, np.diff(ts)
+        (up, self.up), dt = (self.up, None), np.diff(ts)
         total = float(dt[up[:-1] & up[1:]].sum())
         change = np.flatnonzero(up[:-1] != up[1:])  # one crossing in each such interval
         roots = _roots(run, self.signal, self.level, ts[change], ts[change + 1])
@@ -425,7 +429,7 @@ class _FractionAbove(_Request):
 class _Values(_Request):
     """The signal at every scan point (8 bytes a point)."""
 
-    def start(self, ts: np.ndarray) -> None:
+    def start(self, ts: np.ndarray, steps: int) -> None:
         self.v = np.empty(ts.size)
 
     def update(self, chunk: _Chunk) -> None:
