@@ -22,6 +22,16 @@ window [a, b] from those steps only, so that the numbers do not move with ``dt_o
 A crossing in and out again between two scan points of one step is not seen (the scan
 has 4 points per step; the steps are short where the signals move).
 
+Long runs (issue 41, item 5): a :class:`Window` measures every metric asked of it in one
+pass over its steps, :data:`CHUNK_STEPS` at a time; what a metric keeps between chunks
+is a number, or one value or flag per step or scan point, so memory per output sample
+does not grow with the horizon and the samples are taken once for all metrics of a
+window. The numbers are those of the whole window at once, bit for bit (each step's
+part is computed from its own samples; sums are taken over the whole window's per-step
+values). The functions below each make a window of one metric; a post-processor with
+many metrics of one long window asks them of one :class:`Window`
+(:mod:`hgo.papers.dimassi.postprocess`).
+
 :func:`steps_of` gives a trajectory's steps; a trajectory without them (an ensemble
 member's record, RK4) gets :class:`GridRun`, its output samples joined by straight lines:
 the same functions, measured on the grid.
