@@ -62,8 +62,8 @@ XTOL = 1e-12  # seconds: the crossing instants' tolerance
 QTOL = 1e-9
 MAX_HALVINGS = 12
 # steps a window is sampled at a time (Window): ~4 scan points and 6 half-step Gauss nodes
-# a step, 17 signal columns each for dhlm_example: ~11 MB of samples a chunk
-CHUNK_STEPS = 1 << 13
+# a step, 17 signal columns each for dhlm_example: ~6 MB of samples a chunk
+CHUNK_STEPS = 1 << 12
 
 
 class GridRun:
