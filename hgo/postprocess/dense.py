@@ -217,6 +217,11 @@ class Window:
         """:func:`fraction_above`."""
         return self._ask(_FractionAbove(signal, level))
 
+    def first_within(self, signal: Signal, level: float) -> Pending:
+        """:func:`first_within` (one number kept per scan point)."""
+        return self.values(signal).then(
+            lambda tv: _first_within(self.run, signal, level, *tv))
+
     def values(self, signal: Signal) -> Pending:
         """(the scan points, signal at each): one number kept per scan point."""
         return self._ask(_Values(signal))
@@ -672,7 +677,12 @@ def first_within(run: DenseRun, signal: Signal, level: float, a: float, b: float
     side it came from, located by bisection on the continuous extension (to XTOL). A
     bracket whose bisection ends on a jump over the band (|signal - edge| > level there:
     the signal is discontinuous) is no entry."""
-    ts, v = Window(run, a, b).values(signal).value
+    return Window(run, a, b).first_within(signal, level).value
+
+
+def _first_within(run: DenseRun, signal: Signal, level: float, ts: np.ndarray,
+                  v: np.ndarray) -> float:
+    """:func:`first_within` from the signal ``v`` at the scan points ``ts``."""
     inside = np.abs(v) < level
     if inside[0]:
         return float(ts[0])
