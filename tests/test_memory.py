@@ -14,7 +14,7 @@ import pytest
 import hgo.outputs.decimate as decimate
 import hgo.outputs.recording as recording
 from hgo.core.config import compose
-from hgo.outputs.recording import Difference, Series, materialized
+from hgo.outputs.recording import Derived, Difference, Series, materialized
 
 
 def _simulated(tmp_path, t_end: float):
@@ -63,6 +63,20 @@ def test_difference_reads_like_the_array_it_stands_for():
     np.testing.assert_array_equal(np.asarray(pickle.loads(pickle.dumps(lazy))), full)
     (back,) = materialized([Series("/error/x", ["e1", "e2"], lazy)])
     assert isinstance(back.values, np.ndarray)
+    np.testing.assert_array_equal(back.values, full)
+
+
+def test_derived_reads_like_the_array_it_stands_for():
+    """A Derived series (fn of rows of its arrays, here hypot(a, b)) reads like fn of the
+    whole arrays: rows, columns, fancy rows, a pickle round trip, materialized."""
+    rng = np.random.default_rng(4)
+    a, b = rng.standard_normal((50, 2)), rng.standard_normal((50, 2))
+    lazy, full = Derived(np.hypot, (a, b), 2), np.hypot(a, b)
+    assert lazy.shape == full.shape and len(lazy) == 50
+    for key in (slice(None), slice(5, 17), 7, np.array([0, 9, 49]), (slice(2, 8), 1), ...):
+        np.testing.assert_array_equal(lazy[key], full[key], err_msg=str(key))
+    np.testing.assert_array_equal(np.asarray(pickle.loads(pickle.dumps(lazy))), full)
+    (back,) = materialized([Series("/d", ["d1", "d2"], lazy)])
     np.testing.assert_array_equal(back.values, full)
 
 

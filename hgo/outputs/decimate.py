@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from hgo.engine.jit import kernel_helper
-from hgo.outputs.recording import Difference, Series, write_recording
+from hgo.outputs.recording import Computed, Series, write_recording
 
 log = logging.getLogger(__name__)
 MODES = ("full", "decimated", "off")
@@ -47,16 +47,16 @@ def envelope(t: np.ndarray, series: Sequence[Series], max_rows: int
     return t_out, out
 
 
-PASS_ROWS = 1 << 20  # rows bucket_min_max reads at a time (a Difference computes them)
+PASS_ROWS = 1 << 20  # rows bucket_min_max reads at a time (a Computed computes them)
 
 
-def bucket_min_max(values: np.ndarray | Difference, edges: np.ndarray) -> np.ndarray:
+def bucket_min_max(values: np.ndarray | Computed, edges: np.ndarray) -> np.ndarray:
     """Rows 2k and 2k + 1: the minimum and the maximum of every column of ``values``
-    (2-d, finite; an array or a :class:`~hgo.outputs.recording.Difference`) over the rows
+    (2-d, finite; an array or a :class:`~hgo.outputs.recording.Computed`) over the rows
     ``edges[k]:edges[k + 1]`` (:func:`bucket_edges`, increasing row indices of ``values``).
     Read whole buckets of at most :data:`PASS_ROWS` rows at a time (or one bucket): a
     derived series is never computed over the run's whole length."""
-    if not isinstance(values, Difference):
+    if not isinstance(values, Computed):
         values = np.asarray(values, float)
     out = np.empty((2 * (len(edges) - 1), values.shape[1]))
     k = 0

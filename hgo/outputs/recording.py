@@ -58,6 +58,8 @@ if TYPE_CHECKING:  # imported where used: a run without a recording never loads 
 
 __all__ = [
     "TIMELINE",
+    "Computed",
+    "Derived",
     "Difference",
     "Series",
     "materialized",
@@ -103,9 +105,10 @@ class Series:
         Rerun entity path, e.g. ``"/plant/x"`` or ``"/observer/sp6/xhat"``.
     names : list of str
         One display name per column, e.g. ``["x1", "x2"]``.
-    values : numpy.ndarray or Difference
+    values : numpy.ndarray or Computed
         Shape ``(N, len(names))``, float64, one row per time sample; a
-        :class:`Difference` computes its rows when they are read.
+        :class:`Computed` (a :class:`Difference`, a :class:`Derived`) computes its rows when
+        they are read.
     color, width : optional
         One colour (RGB) for every column and a line width; by default column ``k`` gets
         ``PALETTE[k % 10]``. (The runner gives a plant's states one colour and each
@@ -114,43 +117,38 @@ class Series:
 
     entity: str
     names: list[str]
-    values: np.ndarray | Difference
+    values: np.ndarray | Computed
     #: one RGB colour for every column, and a line width (None: the palette by column)
     color: tuple[int, int, int] | None = None
     width: float | None = None
 
 
-@dataclass(frozen=True)
-class Difference:
-    """``a - b[:, columns]``, computed when read: ``values[i:j]`` (any row index, with
-    column indices after it) computes those rows, ``np.asarray(values)`` all of them.
-
-    A series derived from a run's arrays (the estimation errors ``/error/<name>``) then
-    costs no copy of the run's length in the run's process: the recording is written a
-    block of rows at a time, the figures get the pixel-reduced view
-    (:func:`hgo.running.figure_worker.drawing_view`). For S&P Fig. 1 at 1e7 samples the two
-    error series were 320 MB held for the whole run.
-    """
-
-    a: np.ndarray  # (N, S)
-    b: np.ndarray  # (N, >= S)
-    columns: tuple[int, ...]  # of b, one per column of a
-
-    @property
-    def shape(self) -> tuple[int, int]:
-        return self.a.shape
+class Computed:
+    """A series' values computed when read: ``values[i:j]`` (any row index, with column
+    indices after it) computes those rows, ``np.asarray(values)`` all of them (subclasses
+    say how: :meth:`rows`). The recording is written a block of rows at a time and the
+    figures get the pixel-reduced view (:func:`hgo.running.figure_worker.drawing_view`), so
+    a derived series costs no copy of the run's length in the run's process."""
 
     ndim = 2
     dtype = np.dtype(np.float64)
 
+    @property
+    def shape(self) -> tuple[int, int]:
+        raise NotImplementedError
+
+    def rows(self, rows) -> np.ndarray:
+        """The values at ``rows`` (a slice, an index array or an int)."""
+        raise NotImplementedError
+
     def __len__(self) -> int:
-        return len(self.a)
+        return self.shape[0]
 
     def __getitem__(self, key):
         rows, rest = (key[0], key[1:]) if isinstance(key, tuple) else (key, ())
         if rows is Ellipsis or rows is None:
             return np.asarray(self)[key]
-        block = self.a[rows] - self.b[rows][..., list(self.columns)]
+        block = self.rows(rows)
         if not rest:
             return block
         return block[rest] if block.ndim == 1 else block[(slice(None), *rest)]
@@ -161,13 +159,50 @@ class Difference:
 
     def __getattr__(self, name: str):
         # any other array attribute (min, max, mean, T, ...): of the computed array
-        if name.startswith("_") or name in ("a", "b", "columns"):  # (pickle, copy)
-            raise AttributeError(name)
+        if name.startswith("_") or name in getattr(self, "__dataclass_fields__", ()):
+            raise AttributeError(name)  # (pickle, copy)
         return getattr(np.asarray(self), name)
 
 
+@dataclass(frozen=True)
+class Difference(Computed):
+    """``a - b[:, columns]``, computed when read (:class:`Computed`): the estimation errors
+    ``/error/<name>``. For S&P Fig. 1 at 1e7 samples the two error series were 320 MB held
+    for the whole run.
+    """
+
+    a: np.ndarray  # (N, S)
+    b: np.ndarray  # (N, >= S)
+    columns: tuple[int, ...]  # of b, one per column of a
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.a.shape
+
+    def rows(self, rows) -> np.ndarray:
+        return self.a[rows] - self.b[rows][..., list(self.columns)]
+
+
+@dataclass(frozen=True)
+class Derived(Computed):
+    """``fn(*(x[rows] for x in arrays))`` with ``columns`` columns, computed when read
+    (:class:`Computed`); ``fn`` row by row alike (each row's values from that row's), and
+    picklable (the figure process receives a short run's series as they are)."""
+
+    fn: Callable[..., np.ndarray]
+    arrays: tuple[np.ndarray, ...]  # (N, ...) each
+    columns: int
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return len(self.arrays[0]), self.columns
+
+    def rows(self, rows) -> np.ndarray:
+        return self.fn(*(x[rows] for x in self.arrays))
+
+
 def materialized(series: Sequence[Series]) -> list[Series]:
-    """``series`` with every :class:`Difference` computed into an array (for code that
+    """``series`` with every :class:`Computed` one computed into an array (for code that
     expects arrays: figure functions, a DataFrame of the signals)."""
     return [s if isinstance(s.values, np.ndarray)
             else Series(s.entity, s.names, np.asarray(s.values)) for s in series]
@@ -197,11 +232,11 @@ def _time_column(t: np.ndarray) -> np.ndarray:
     return t_ns.view("timedelta64[ns]")
 
 
-def _checked_values(s: Series, n: int) -> np.ndarray | Difference:
-    """Return ``s.values`` (as float64; a :class:`Difference` as it is, read a block at a
+def _checked_values(s: Series, n: int) -> np.ndarray | Computed:
+    """Return ``s.values`` (as float64; a :class:`Computed` as it is, read a block at a
     time when sent) after checking it is ``(n, len(s.names))``."""
-    values = s.values if isinstance(s.values, Difference) else np.asarray(s.values,
-                                                                          dtype=np.float64)
+    values = s.values if isinstance(s.values, Computed) else np.asarray(s.values,
+                                                                        dtype=np.float64)
     expected = (n, len(s.names))
     if values.shape != expected:
         hint = ""

@@ -22,6 +22,16 @@ window [a, b] from those steps only, so that the numbers do not move with ``dt_o
 A crossing in and out again between two scan points of one step is not seen (the scan
 has 4 points per step; the steps are short where the signals move).
 
+Long runs (issue 41, item 5): a :class:`Window` measures every metric asked of it in one
+pass over its steps, :data:`CHUNK_STEPS` at a time; what a metric keeps between chunks
+is a number, or one value or flag per step or scan point, so memory per output sample
+does not grow with the horizon and the samples are taken once for all metrics of a
+window. The numbers are those of the whole window at once, bit for bit (each step's
+part is computed from its own samples; sums are taken over the whole window's per-step
+values). The functions below each make a window of one metric; a post-processor with
+many metrics of one long window asks them of one :class:`Window`
+(:mod:`hgo.papers.dimassi.postprocess`).
+
 :func:`steps_of` gives a trajectory's steps; a trajectory without them (an ensemble
 member's record, RK4) gets :class:`GridRun`, its output samples joined by straight lines:
 the same functions, measured on the grid.
@@ -30,7 +40,9 @@ the same functions, measured on the grid.
 from __future__ import annotations
 
 import math
+import weakref
 from collections.abc import Callable
+from dataclasses import dataclass
 from types import MethodType
 
 import numpy as np
@@ -49,6 +61,9 @@ XTOL = 1e-12  # seconds: the crossing instants' tolerance
 # nearly every step (21.6 M samples against 0.32 M at 200 s: 68x for 10x the horizon).
 QTOL = 1e-9
 MAX_HALVINGS = 12
+# steps a window is sampled at a time (Window): ~4 scan points and 6 half-step Gauss nodes
+# a step, 17 signal columns each for dhlm_example: ~6 MB of samples a chunk
+CHUNK_STEPS = 1 << 12
 
 
 class GridRun:
@@ -95,11 +110,11 @@ def _cached(run, key: tuple, make: Callable[[], tuple]) -> tuple:
 
 
 def release(run: DenseRun, a: float, b: float) -> None:
-    """Drop the signals kept for the window [a, b] (its scan, its half-step Gauss nodes): a
-    post-processor done with a window frees them (a 2000 s run's are ~0.3-0.4 GB each).
-    Asked for again, they are sampled again, the same."""
+    """Drop what is kept for the window [a, b] (its step ends; for a window of one chunk, its
+    scan points and samples): a post-processor done with a window frees them. Asked for
+    again, they are computed again, the same."""
     cache = run.__dict__.get("_dense_samples", {})
-    for kind in ("scan", "halves", "gauss_index"):
+    for kind in ("edges", "scan", "samples"):
         cache.pop((kind, a, b), None)
 
 
@@ -108,42 +123,335 @@ def _edges(run: DenseRun, a: float, b: float) -> np.ndarray:
     return _cached(run, ("edges", a, b), lambda: (run.boundaries(a, b),))[0]
 
 
-def _gauss_nodes(run: DenseRun, a: float, b: float) -> np.ndarray:
-    """The Gauss nodes of every step's part of [a, b] (3 a step, in order)."""
-    edges = _edges(run, a, b)
-    lo, width = edges[:-1], np.diff(edges)
+def _gauss_nodes(lo: np.ndarray, width: np.ndarray) -> np.ndarray:
+    """The Gauss nodes of the pieces [lo, lo + width] (3 a piece, in order)."""
     return (lo[:, None] + width[:, None] * NODES01[None, :]).ravel()
 
 
-def _gauss_values(run: DenseRun, signal: Signal, a: float, b: float) -> np.ndarray:
-    """``signal`` at the Gauss nodes of every step's part of [a, b], read from the scan's
-    samples (the nodes are scan points: no samples of their own are kept)."""
-    ts, s = _scan(run, a, b)
-    at = _cached(run, ("gauss_index", a, b),
-                 lambda: (np.searchsorted(ts, _gauss_nodes(run, a, b)),))[0]
-    return np.asarray(signal(s), float)[at]
-
-
-def _halves(run: DenseRun, a: float, b: float) -> tuple[Trajectory, Trajectory]:
-    """The signals at the Gauss nodes of both halves of every step's part of [a, b]: the
-    first refinement of :func:`integral`, shared by every signal of the window."""
+def _scan_points(run: DenseRun, a: float, b: float) -> np.ndarray:
+    """The scan points of [a, b]: the step ends and each step's Gauss nodes, sorted (8 bytes
+    each, 4 a step: kept on the run for a window of one chunk, whose samples are kept too).
+    Each step's nodes lie inside it, so they are its end and nodes in turn (``np.union1d``
+    where rounding makes two points meet: a step of a few ulp)."""
     def make():
         edges = _edges(run, a, b)
-        lo, half = edges[:-1], 0.5 * np.diff(edges)
-        return tuple(run.at((start[:, None] + half[:, None] * NODES01[None, :]).ravel())
-                     for start in (lo, lo + half))
+        nodes = _gauss_nodes(edges[:-1], np.diff(edges))
+        ts = np.empty(edges.size + nodes.size)
+        ts[::4], ts[1::4], ts[2::4], ts[3::4] = edges, nodes[::3], nodes[1::3], nodes[2::3]
+        return (ts if np.all(ts[1:] > ts[:-1]) else np.union1d(edges, nodes),)
 
-    return _cached(run, ("halves", a, b), make)
+    if _edges(run, a, b).size - 1 <= CHUNK_STEPS:
+        return _cached(run, ("scan", a, b), make)[0]
+    return make()[0]
 
 
-def _scan(run: DenseRun, a: float, b: float) -> tuple[np.ndarray, Trajectory]:
-    """The scan points of [a, b] (the step ends and each step's Gauss nodes, sorted) and
-    the signals there."""
-    def make():
-        ts = np.union1d(_edges(run, a, b), _gauss_nodes(run, a, b))
-        return ts, run.at(ts)
+@dataclass
+class _Chunk:
+    """Steps ``p0 .. p0 + len(lo) - 1`` of a window (pieces [lo, lo + width]) and the
+    signals at their scan points: ``s`` at the scan points ``j0 ..`` of the window, of which
+    the first ``own`` are this chunk's (the next is the following chunk's first step end,
+    sampled too in case a Gauss node rounds onto it); ``at``: the Gauss nodes' rows of
+    ``s``; ``halves``: the signals at the Gauss nodes of both halves of every piece (for
+    integrals; None when no request integrates)."""
 
-    return _cached(run, ("scan", a, b), make)
+    run: DenseRun
+    p0: int
+    lo: np.ndarray
+    width: np.ndarray
+    j0: int
+    own: int
+    s: Trajectory
+    at: np.ndarray
+    halves: tuple[Trajectory, Trajectory] | None
+
+
+class Window:
+    """Metrics of ``signal``s over the window [a, b] of a run, measured in one pass over its
+    steps, :data:`CHUNK_STEPS` at a time: every metric asked for (:meth:`maximum`,
+    :meth:`integral`, ...) returns a :class:`Pending`; the first value read measures every
+    metric asked for until then, sampling each chunk's scan points (and, for integrals, its
+    half-step Gauss nodes) once for all of them. What a metric keeps between chunks is a
+    number, or one flag or value per step (integrals, shares): the samples of a long
+    window are never all held at once (a 2000 s DHLM run: 2.1 M scan points, 0.29 GB of
+    samples a window). A window of one chunk keeps its samples on the run, for the next
+    :class:`Window` of it (the functions below make one per metric)."""
+
+    def __init__(self, run: DenseRun, a: float, b: float) -> None:
+        self.run, self.a, self.b = run, float(a), float(b)
+        self.todo: list[_Request] = []
+
+    def _ask(self, request: _Request) -> Pending:
+        self.todo.append(request)
+        return Pending(self, request)
+
+    def maximum(self, signal: Signal) -> Pending:
+        """(max over [a, b] of signal, the instant): the largest scan point, refined on the
+        continuous extension between its neighbours."""
+        return self._ask(_Maximum(signal))
+
+    def minimum(self, signal: Signal) -> Pending:
+        """(min over [a, b] of signal, the instant), as :meth:`maximum`."""
+        return self.maximum(lambda s: -signal(s)).then(lambda m: (-m[0], m[1]))
+
+    def integral(self, signal: Signal) -> Pending:
+        """int_a^b signal dt (:func:`integral`)."""
+        return self._ask(_Integral(signal))
+
+    def mean(self, signal: Signal) -> Pending:
+        """(1 / (b - a)) int_a^b signal dt."""
+        return self.integral(signal).then(lambda v: v / (self.b - self.a))
+
+    def rms(self, signal: Signal) -> Pending:
+        """sqrt of the mean of signal^2 over [a, b]."""
+        return self.mean(lambda s: signal(s) ** 2).then(math.sqrt)
+
+    def settles_below(self, signal: Signal, level: float) -> Pending:
+        """:func:`settles_below`."""
+        return self._ask(_SettlesBelow(signal, level))
+
+    def first_below(self, signal: Signal, level: float) -> Pending:
+        """:func:`first_below`."""
+        return self._ask(_FirstBelow(signal, level))
+
+    def fraction_above(self, signal: Signal, level: float) -> Pending:
+        """:func:`fraction_above`."""
+        return self._ask(_FractionAbove(signal, level))
+
+    def first_within(self, signal: Signal, level: float) -> Pending:
+        """:func:`first_within` (one number kept per scan point)."""
+        return self.values(signal).then(
+            lambda tv: _first_within(self.run, signal, level, *tv))
+
+    def values(self, signal: Signal) -> Pending:
+        """(the scan points, signal at each): one number kept per scan point."""
+        return self._ask(_Values(signal))
+
+    def size(self) -> int:
+        """The window's scan points, at most (4 a step, and b)."""
+        return 4 * (_edges(self.run, self.a, self.b).size - 1) + 1
+
+    def measure(self) -> None:
+        """Measure every metric asked for and not yet measured, in one pass."""
+        todo, self.todo = self.todo, []
+        if not todo:
+            return
+        ts = _scan_points(self.run, self.a, self.b)
+        steps = _edges(self.run, self.a, self.b).size - 1
+        for request in todo:
+            request.start(ts, steps)
+        halves = any(r.integrates for r in todo)
+        for chunk in self._chunks(ts, halves):
+            for request in todo:
+                request.update(chunk)
+        for request in todo:
+            request.finish(self.run, ts)
+        if steps > CHUNK_STEPS:  # (a window of one chunk keeps its samples for the next)
+            release(self.run, self.a, self.b)
+
+    def _chunks(self, ts: np.ndarray, halves: bool):
+        edges = _edges(self.run, self.a, self.b)
+        pieces = edges.size - 1
+        for p0 in range(0, max(pieces, 1), CHUNK_STEPS):  # (a window of no step: its point)
+            p1 = min(p0 + CHUNK_STEPS, pieces)
+            j0 = int(np.searchsorted(ts, edges[p0]))
+            j1 = int(np.searchsorted(ts, edges[p1])) if p1 < pieces else ts.size
+            lo, width = edges[p0:p1], np.diff(edges[p0:p1 + 1])
+            s, halved = self._samples(ts[j0:min(j1 + 1, ts.size)], lo, width, halves,
+                                      single=pieces <= CHUNK_STEPS)
+            at = np.searchsorted(ts[j0:j1 + 1], _gauss_nodes(lo, width))
+            yield _Chunk(self.run, p0, lo, width, j0, j1 - j0, s, at, halved)
+
+    def _samples(self, ts: np.ndarray, lo: np.ndarray, width: np.ndarray, halves: bool,
+                 single: bool) -> tuple[Trajectory, tuple | None]:
+        """The signals at the chunk's scan points and (``halves``) at the Gauss nodes of
+        both halves of its pieces; a window of one chunk (``single``) keeps them."""
+        def sample(kept: tuple | None) -> tuple:
+            s = kept[0] if kept else self.run.at(ts)
+            half = 0.5 * width
+            halved = (kept[1] if kept and kept[1] is not None else
+                      tuple(self.run.at(_gauss_nodes(start, half)) for start in (lo, lo + half))
+                      if halves else None)
+            return s, halved
+
+        if not single:
+            return sample(None)
+        cache = self.run.__dict__.setdefault("_dense_samples", {})
+        key = ("samples", self.a, self.b)
+        kept = cache.get(key)
+        if kept is None or (halves and kept[1] is None):
+            cache[key] = kept = sample(kept)
+        return kept
+
+
+class Pending:
+    """A metric of a :class:`Window`: ``value`` measures the window (with every metric asked
+    for until then) the first time it is read; ``then(fn)``: ``fn(value)``, pending too."""
+
+    def __init__(self, window: Window, request: _Request,
+                 fn: Callable[[object], object] | None = None) -> None:
+        self.window, self.request, self.fn = window, request, fn
+
+    @property
+    def value(self):
+        if not self.request.done:
+            self.window.measure()
+        return self.request.result if self.fn is None else self.fn(self.request.result)
+
+    def then(self, fn: Callable[[object], object]) -> Pending:
+        inner = self.fn
+        return Pending(self.window, self.request,
+                       fn if inner is None else (lambda v: fn(inner(v))))
+
+
+class _Request:
+    """One metric of a window: ``start(ts, steps)`` (the window's scan points and number of
+    steps), ``update(chunk)`` per chunk in order, ``finish(run, ts)`` sets ``result``."""
+
+    integrates = False
+
+    def __init__(self, signal: Signal) -> None:
+        self.signal, self.done, self.result = signal, False, None
+
+    def start(self, ts: np.ndarray, steps: int) -> None:
+        pass
+
+    def values(self, chunk: _Chunk) -> np.ndarray:
+        """The signal at the chunk's own scan points."""
+        return np.asarray(self.signal(chunk.s), float)[:chunk.own]
+
+    def update(self, chunk: _Chunk) -> None:
+        raise NotImplementedError
+
+    def finish(self, run: DenseRun, ts: np.ndarray) -> None:
+        self.result, self.done = self.outcome(run, ts), True
+
+    def outcome(self, run: DenseRun, ts: np.ndarray):
+        raise NotImplementedError
+
+
+class _Maximum(_Request):
+    """The first largest scan point (NaN first, as ``np.argmax``), refined."""
+
+    def start(self, ts: np.ndarray, steps: int) -> None:
+        self.k, self.best = -1, -math.inf
+
+    def update(self, chunk: _Chunk) -> None:
+        v = self.values(chunk)
+        if not v.size:
+            return
+        k = int(np.argmax(v))
+        if self.k < 0 or v[k] > self.best or (math.isnan(v[k]) and not math.isnan(self.best)):
+            self.k, self.best = chunk.j0 + k, float(v[k])
+
+    def outcome(self, run: DenseRun, ts: np.ndarray) -> tuple[float, float]:
+        k, best, signal = self.k, self.best, self.signal
+        lo, hi = ts[max(k - 1, 0)], ts[min(k + 1, ts.size - 1)]
+        best_t = float(ts[k])
+        if hi > lo:
+            t, neg = bounded_minimum(lambda t: -_at(run, signal, t), lo, hi, xatol=XTOL)
+            if -neg > best:
+                best_t, best = float(t), float(-neg)
+        return best, best_t
+
+
+class _Integral(_Request):
+    """:func:`integral`'s rule on every step's part of the window, kept per step and summed
+    at the end (the same sum, in the same order, as over the whole window at once)."""
+
+    integrates = True
+
+    def start(self, ts: np.ndarray, steps: int) -> None:
+        self.pieces = np.zeros(steps)
+
+    def update(self, chunk: _Chunk) -> None:
+        gauss = np.asarray(self.signal(chunk.s), float)[chunk.at]
+        whole = (gauss.reshape(chunk.lo.size, 3) @ WEIGHTS01) * chunk.width
+        self.pieces[chunk.p0:chunk.p0 + chunk.lo.size] = _refine(
+            chunk.run, self.signal, chunk.lo, chunk.width, whole, chunk.halves)
+
+    def outcome(self, run: DenseRun, ts: np.ndarray) -> float:
+        pieces, self.pieces = self.pieces, None
+        return float(np.sum(pieces))
+
+
+class _SettlesBelow(_Request):
+    """The last scan point at or above ``level``."""
+
+    def __init__(self, signal: Signal, level: float) -> None:
+        super().__init__(signal)
+        self.level, self.last = level, -1
+
+    def update(self, chunk: _Chunk) -> None:
+        above = np.flatnonzero(self.values(chunk) >= self.level)
+        if above.size:
+            self.last = chunk.j0 + int(above[-1])
+
+    def outcome(self, run: DenseRun, ts: np.ndarray) -> float:
+        k = self.last
+        if k < 0:
+            return float(ts[0])
+        if k == ts.size - 1:
+            return math.nan
+        return float(_roots(run, self.signal, self.level, ts[k:k + 1], ts[k + 1:k + 2])[0])
+
+
+class _FirstBelow(_Request):
+    """The first scan point below ``level``."""
+
+    def __init__(self, signal: Signal, level: float) -> None:
+        super().__init__(signal)
+        self.level, self.first = level, -1
+
+    def update(self, chunk: _Chunk) -> None:
+        if self.first >= 0:
+            return
+        below = np.flatnonzero(self.values(chunk) < self.level)
+        if below.size:
+            self.first = chunk.j0 + int(below[0])
+
+    def outcome(self, run: DenseRun, ts: np.ndarray) -> float:
+        k = self.first
+        if k < 0:
+            return math.nan
+        if k == 0:
+            return float(ts[0])
+        return float(_roots(run, self.signal, self.level, ts[k - 1:k], ts[k:k + 1])[0])
+
+
+class _FractionAbove(_Request):
+    """Whether the signal is above ``level`` at each scan point (one byte a point)."""
+
+    def __init__(self, signal: Signal, level: float) -> None:
+        super().__init__(signal)
+        self.level = level
+
+    def start(self, ts: np.ndarray, steps: int) -> None:
+        self.up = np.zeros(ts.size, bool)
+
+    def update(self, chunk: _Chunk) -> None:
+        self.up[chunk.j0:chunk.j0 + chunk.own] = self.values(chunk) > self.level
+
+    def outcome(self, run: DenseRun, ts: np.ndarray) -> float:
+        (up, self.up), dt = (self.up, None), np.diff(ts)
+        total = float(dt[up[:-1] & up[1:]].sum())
+        change = np.flatnonzero(up[:-1] != up[1:])  # one crossing in each such interval
+        roots = _roots(run, self.signal, self.level, ts[change], ts[change + 1])
+        rising = up[change + 1]
+        total += float(np.sum(np.where(rising, ts[change + 1] - roots, roots - ts[change])))
+        return total / (float(ts[-1]) - float(ts[0]))  # (b - a)
+
+
+class _Values(_Request):
+    """The signal at every scan point (8 bytes a point)."""
+
+    def start(self, ts: np.ndarray, steps: int) -> None:
+        self.v = np.empty(ts.size)
+
+    def update(self, chunk: _Chunk) -> None:
+        self.v[chunk.j0:chunk.j0 + chunk.own] = self.values(chunk)
+
+    def outcome(self, run: DenseRun, ts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return ts, self.v
 
 
 def _roots(run: DenseRun, signal: Signal, level: float, lo: np.ndarray,
@@ -214,16 +522,8 @@ def integral(run: DenseRun, signal: Signal, a: float, b: float) -> float:
     has just taken."""
     if isinstance(signal, MethodType):
         return _cached(run, ("integral", signal, a, b),
-                       lambda: (_integral(run, signal, a, b),))[0]
-    return _integral(run, signal, a, b)
-
-
-def _integral(run: DenseRun, signal: Signal, a: float, b: float) -> float:
-    edges = _edges(run, a, b)
-    lo, width = edges[:-1], np.diff(edges)
-    whole = (_gauss_values(run, signal, a, b).reshape(lo.size, 3) @ WEIGHTS01) * width
-    # every step's halves: sampled once for all signals of the window
-    return float(np.sum(_refine(run, signal, lo, width, whole, _halves(run, a, b))))
+                       lambda: (Window(run, a, b).integral(signal).value,))[0]
+    return Window(run, a, b).integral(signal).value
 
 
 class Cumulative:
@@ -276,19 +576,20 @@ class Remembering:
 class LastValue:
     """``fn(samples)`` remembered for the last samples of more than one instant it was
     called with (by identity): for a quantity with several columns whose maxima are
-    measured one column after the other on the same scan (each column's signal computes
-    the whole quantity; :func:`maximum`'s refinement between, at single instants, is
-    computed afresh and does not replace the scan's value)."""
+    measured one column after the other on the same scan or chunk of it (each column's
+    signal computes the whole quantity; :func:`maximum`'s refinement between, at single
+    instants, is computed afresh and does not replace the scan's value). The samples are
+    referred to weakly (a window's last chunk is not kept alive by it)."""
 
     def __init__(self, fn: Callable[[Trajectory], np.ndarray]) -> None:
-        self.fn, self.samples, self.value = fn, None, None
+        self.fn, self.samples, self.value = fn, lambda: None, None
 
     def __call__(self, samples: Trajectory) -> np.ndarray:
-        if samples is self.samples:
+        if samples is self.samples():
             return self.value
         value = self.fn(samples)
         if len(samples.t) > 1:
-            self.samples, self.value = samples, value
+            self.samples, self.value = weakref.ref(samples), value
         return value
 
 
@@ -338,8 +639,8 @@ def max_rise(cum: Cumulative, level: float, a: float, b: float) -> float:
     I = ``cum``: J = I - level t is monotone between the crossings of ``level`` by the
     signal, so its largest rise is that of its values at the scan points of [a, b] and
     those crossings (located by bisection to XTOL), evaluated exactly."""
-    ts, s = _scan(cum.run, a, b)
-    v = np.asarray(cum.signal(s), float) - level
+    ts, v = Window(cum.run, a, b).values(cum.signal).value
+    v = v - level
     k = np.flatnonzero(np.sign(v[:-1]) != np.sign(v[1:]))
     points = np.sort(np.concatenate([ts, _roots(cum.run, cum.signal, level, ts[k],
                                                 ts[k + 1])]))
@@ -365,14 +666,7 @@ def std(run: DenseRun, signal: Signal, a: float, b: float) -> float:
 
 def first_below(run: DenseRun, signal: Signal, level: float, a: float, b: float) -> float:
     """The first t in [a, b] with signal(t) < level; NaN if none."""
-    ts, s = _scan(run, a, b)
-    below = np.flatnonzero(np.asarray(signal(s)) < level)
-    if not below.size:
-        return math.nan
-    k = int(below[0])
-    if k == 0:
-        return float(ts[0])
-    return float(_roots(run, signal, level, ts[k - 1:k], ts[k:k + 1])[0])
+    return Window(run, a, b).first_below(signal, level).value
 
 
 def first_within(run: DenseRun, signal: Signal, level: float, a: float, b: float) -> float:
@@ -383,8 +677,12 @@ def first_within(run: DenseRun, signal: Signal, level: float, a: float, b: float
     side it came from, located by bisection on the continuous extension (to XTOL). A
     bracket whose bisection ends on a jump over the band (|signal - edge| > level there:
     the signal is discontinuous) is no entry."""
-    ts, s = _scan(run, a, b)
-    v = np.asarray(signal(s), float)
+    return Window(run, a, b).first_within(signal, level).value
+
+
+def _first_within(run: DenseRun, signal: Signal, level: float, ts: np.ndarray,
+                  v: np.ndarray) -> float:
+    """:func:`first_within` from the signal ``v`` at the scan points ``ts``."""
     inside = np.abs(v) < level
     if inside[0]:
         return float(ts[0])
@@ -399,45 +697,20 @@ def first_within(run: DenseRun, signal: Signal, level: float, a: float, b: float
 def settles_below(run: DenseRun, signal: Signal, level: float, a: float, b: float) -> float:
     """The first t in [a, b] after which signal < level up to b: the last up-crossing;
     NaN ("never") if the signal is >= level at b (it leaves the band before the end)."""
-    ts, s = _scan(run, a, b)
-    above = np.flatnonzero(np.asarray(signal(s)) >= level)
-    if not above.size:
-        return float(ts[0])
-    k = int(above[-1])
-    if k == ts.size - 1:
-        return math.nan
-    return float(_roots(run, signal, level, ts[k:k + 1], ts[k + 1:k + 2])[0])
+    return Window(run, a, b).settles_below(signal, level).value
 
 
 def fraction_above(run: DenseRun, signal: Signal, level: float, a: float, b: float) -> float:
     """The share of [a, b] where signal > level (crossings located on the steps)."""
-    ts, s = _scan(run, a, b)
-    up = np.asarray(signal(s), float) > level
-    dt = np.diff(ts)
-    total = float(dt[up[:-1] & up[1:]].sum())
-    change = np.flatnonzero(up[:-1] != up[1:])  # one crossing in each such interval
-    roots = _roots(run, signal, level, ts[change], ts[change + 1])
-    rising = up[change + 1]
-    total += float(np.sum(np.where(rising, ts[change + 1] - roots, roots - ts[change])))
-    return total / (b - a)
+    return Window(run, a, b).fraction_above(signal, level).value
 
 
 def maximum(run: DenseRun, signal: Signal, a: float, b: float) -> tuple[float, float]:
     """(max over [a, b] of signal, the instant): the largest scan point refined on the
     continuous extension between its neighbours."""
-    ts, s = _scan(run, a, b)
-    v = np.asarray(signal(s), float)
-    k = int(np.argmax(v))
-    lo, hi = ts[max(k - 1, 0)], ts[min(k + 1, ts.size - 1)]
-    best_t, best = float(ts[k]), float(v[k])
-    if hi > lo:
-        t, neg = bounded_minimum(lambda t: -_at(run, signal, t), lo, hi, xatol=XTOL)
-        if -neg > best:
-            best_t, best = float(t), float(-neg)
-    return best, best_t
+    return Window(run, a, b).maximum(signal).value
 
 
 def minimum(run: DenseRun, signal: Signal, a: float, b: float) -> tuple[float, float]:
     """(min over [a, b] of signal, the instant), as :func:`maximum`."""
-    value, t = maximum(run, lambda s: -signal(s), a, b)
-    return -value, t
+    return Window(run, a, b).minimum(signal).value

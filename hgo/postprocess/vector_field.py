@@ -22,11 +22,14 @@ from hgo.core.components import Plant
 COMPILE_ROWS = 500_000
 
 
-def vector_field(plant: Plant, t: np.ndarray, x: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """``dx[j] = f(t[j], x[j], u[j])`` of ``plant`` (its parameters read once)."""
+def vector_field(plant: Plant, t: np.ndarray, x: np.ndarray, u: np.ndarray,
+                 compiled: bool | None = None) -> np.ndarray:
+    """``dx[j] = f(t[j], x[j], u[j])`` of ``plant`` (its parameters read once); compiled
+    (``compiled``, by default: from :data:`COMPILE_ROWS` samples) or the Python loop. A
+    caller asking for many samples a chunk at a time says ``compiled`` from their total."""
     p = plant.p.record() if plant.params else plant.p
     dx = np.empty((len(t), x.shape[1]))
-    if len(t) >= COMPILE_ROWS:
+    if (len(t) >= COMPILE_ROWS) if compiled is None else compiled:
         try:
             _rows()(_compiled(plant.f), np.ascontiguousarray(t, float),
                     np.ascontiguousarray(x, float), np.ascontiguousarray(u, float), p, dx)

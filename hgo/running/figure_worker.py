@@ -57,7 +57,7 @@ BUCKETS = 10_000  # min/max buckets of the samples between them
 
 def _min_max_rows(values, edges: np.ndarray) -> np.ndarray:
     """Two rows a bucket of ``values`` (2-d: an array or a
-    :class:`~hgo.outputs.recording.Difference`; ``edges``: row indices): min then max, or
+    :class:`~hgo.outputs.recording.Computed`; ``edges``: row indices): min then max, or
     max then min where the bucket falls (its first value above its last), so a smooth
     curve stays smooth."""
     from hgo.outputs.decimate import bucket_min_max
@@ -93,7 +93,7 @@ def drawing_view(result: Any) -> Any:
     import dataclasses
 
     from hgo.outputs.decimate import bucket_edges
-    from hgo.outputs.recording import Difference, materialized
+    from hgo.outputs.recording import Computed, materialized
 
     traj = result.trajectory
     if traj.dense is not None:
@@ -113,7 +113,7 @@ def drawing_view(result: Any) -> Any:
                   if f.name != "t" and isinstance(getattr(traj, f.name), np.ndarray)
                   and getattr(traj, f.name).shape[:1] == (n,)}
     series = [dataclasses.replace(s, values=_reduced(
-        s.values if isinstance(s.values, Difference) else np.asarray(s.values), edges))
+        s.values if isinstance(s.values, Computed) else np.asarray(s.values), edges))
         if len(s.values) == n else s for s in result.series]
     return dataclasses.replace(result, trajectory=dataclasses.replace(traj, t=t, **per_sample),
                                series=materialized(series))

@@ -212,25 +212,27 @@ class APAMetrics:
         return vals
 
     def _observer_rows(self, obs, sig: _ObserverSignals, run, t_stop: float) -> list[dict]:
-        """The rows of one observer, every one measured on the steps."""
+        """The rows of one observer, every one measured on the steps (the metrics of the
+        run and of the transient each asked of one window, measured in one pass)."""
         p = obs.p
-        whole = (0.0, t_stop)
+        whole = dense.Window(run, 0.0, t_stop)
+        transient = dense.Window(run, *_span(self.transient, t_stop))
         vals = self._window_rows(sig, run, t_stop)
-        transient = _span(self.transient, t_stop)
-        vals["peak_e_x2"] = dense.maximum(run, lambda s: np.abs(sig.e_x2(s)), *transient)[0]
+        vals["peak_e_x2"] = transient.maximum(lambda s: np.abs(sig.e_x2(s))).then(
+            lambda m: m[0])
         for thr in self.thresholds:
-            vals[f"t1_{thr:g}"] = dense.first_within(run, sig.e, thr, *whole)
-        vals[f"ts_{min(self.thresholds):g}"] = dense.settles_below(
-            run, sig.abs_e, min(self.thresholds), *transient)
-        L_ends = sig.L(run.at(np.array(whole)))
+            vals[f"t1_{thr:g}"] = whole.first_within(sig.e, thr)
+        vals[f"ts_{min(self.thresholds):g}"] = transient.settles_below(
+            sig.abs_e, min(self.thresholds))
+        L_ends = sig.L(run.at(np.array([0.0, t_stop])))
         vals.update(L0=L_ends[0], L_end=L_ends[1],
-                    min_L=dense.minimum(run, sig.L, *whole)[0],
-                    max_L=dense.maximum(run, sig.L, *whole)[0],
-                    mean_Omega=dense.mean(run, sig.omega, *whole),
-                    share_sat_high=dense.fraction_above(run, sig.above_high, 0.0, *whole),
-                    share_sat_low=dense.fraction_above(run, sig.below_low, 0.0, *whole))
+                    min_L=whole.minimum(sig.L).then(lambda m: m[0]),
+                    max_L=whole.maximum(sig.L).then(lambda m: m[0]),
+                    mean_Omega=whole.mean(sig.omega),
+                    share_sat_high=whole.fraction_above(sig.above_high, 0.0),
+                    share_sat_low=whole.fraction_above(sig.below_low, 0.0))
         vals.update(eps1=p.eps1, eps2=p.eps2, df2max=p.df2max)
-        rows = [{"observer": obs.name, "quantity": q, "empirical": float(v)}
+        rows = [{"observer": obs.name, "quantity": q, "empirical": float(_measured(v))}
                 for q, v in vals.items()]
         if p.kind == 1:  # Omega1 <= df2max: L <= max(L(0), equilibrium at df2max); of the
             # df2max observer (Omega = df2max) L stays at that equilibrium: no test
@@ -240,19 +242,24 @@ class APAMetrics:
 
     @staticmethod
     def _plant_rows(run, t_stop: float, hbar: float, hbar_o: float | None) -> list[dict]:
-        whole = (0.0, t_stop)
-        max_rate, t_max = dense.maximum(run, lambda s: _rates(s, hbar), *whole)
-        vals = {"min_eta1": dense.minimum(run, lambda s: s.z[:, 0], *whole)[0],
-                "min_eta2": dense.minimum(run, lambda s: s.z[:, 1], *whole)[0],
-                "mean_rate_true": dense.mean(run, lambda s: _rates(s, hbar), *whole),
-                "max_rate_true": max_rate, "t_max_rate_true": t_max}
-        vals["mean_abs_rate_true"] = dense.mean(run, lambda s: np.abs(_rates(s, hbar)), *whole)
+        whole = dense.Window(run, 0.0, t_stop)  # every row in one pass
+        max_rate = whole.maximum(lambda s: _rates(s, hbar))
+        vals = {"min_eta1": whole.minimum(lambda s: s.z[:, 0]).then(lambda m: m[0]),
+                "min_eta2": whole.minimum(lambda s: s.z[:, 1]).then(lambda m: m[0]),
+                "mean_rate_true": whole.mean(lambda s: _rates(s, hbar)),
+                "max_rate_true": max_rate.then(lambda m: m[0]),
+                "t_max_rate_true": max_rate.then(lambda m: m[1])}
+        vals["mean_abs_rate_true"] = whole.mean(lambda s: np.abs(_rates(s, hbar)))
         if hbar_o is not None:
-            vals["mean_rate_model"] = dense.mean(run, lambda s: _rates(s, hbar_o), *whole)
-            vals["mean_abs_rate_model"] = dense.mean(run, lambda s: np.abs(_rates(s, hbar_o)),
-                                                     *whole)
-        return [{"observer": "plant", "quantity": q, "empirical": float(v)}
+            vals["mean_rate_model"] = whole.mean(lambda s: _rates(s, hbar_o))
+            vals["mean_abs_rate_model"] = whole.mean(lambda s: np.abs(_rates(s, hbar_o)))
+        return [{"observer": "plant", "quantity": q, "empirical": float(_measured(v))}
                 for q, v in vals.items()]
+
+
+def _measured(v):
+    """A row's value: measured (:class:`dense.Pending`) or a number."""
+    return v.value if isinstance(v, dense.Pending) else v
 
 
 def apa_metrics(late: Sequence[float] = (40.0, 50.0), post: Sequence[float] = (10.0, 50.0),

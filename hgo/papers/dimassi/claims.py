@@ -58,7 +58,7 @@ def _series(*extra: str) -> dict[str, np.ndarray]:
     """Post-processed series by entity, plus t, x (plant), xhat and w^ of the run."""
     run = run_in_memory(NOMINAL + tuple(extra))
     system, traj = run.experiment.system, run.trajectory
-    out = {s.entity: s.values for s in run.post.series}
+    out = {s.entity: np.asarray(s.values) for s in run.post.series}
     _, zb = system.z_slices[1]
     out.update(t=traj.t, x=traj.z[:, :system.plant.nx], xhat=traj.xh, omega_hat=traj.z[:, zb - 1])
     return out

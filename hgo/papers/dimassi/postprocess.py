@@ -44,27 +44,57 @@ not move with ``dt_out``. A settling time ("for good") is the last exit from the
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
+from types import SimpleNamespace
 
 import numpy as np
 
 from hgo.engine.simulate import SolverSettings, Trajectory, no_noise, simulate
 from hgo.engine.system import System
 from hgo.observers import adaptive_cascade as ac
-from hgo.outputs.recording import Series
+from hgo.outputs.recording import Derived, Series
 from hgo.plants.robot_arm import dimassi_psi
 from hgo.postprocess import PostOutput, dense
 from hgo.postprocess.dense import steps_of
-from hgo.postprocess.vector_field import vector_field
+from hgo.postprocess.vector_field import COMPILE_ROWS, vector_field
 
 
 def settle_time(run, signal, band: float, t_window: float, t_end: float) -> float:
     """The time after which |signal| < band for good (its last exit from the band, located
     on the steps); NaN ("never") if it is outside the band anywhere in the window
     [t_window, t_end] (where it should have settled); 0 if it never leaves."""
-    t = dense.settles_below(run, lambda s: np.abs(signal(s)), band, 0.0, t_end)
-    return t if t < t_window else math.nan
+    return settling(dense.Window(run, 0.0, t_end), signal, band, t_window).value
+
+
+def settling(whole: dense.Window, signal, band: float, t_window: float) -> dense.Pending:
+    """:func:`settle_time` over ``whole`` (the run from 0), measured with its other metrics."""
+    return whole.settles_below(lambda s: np.abs(signal(s)), band).then(
+        lambda t: t if t < t_window else math.nan)
+
+
+@dataclass(frozen=True)
+class _Windows:
+    """The windows the rows are measured on, each in one pass over its steps: the whole run
+    [0, T], [T(eps), T] and W = [window_start, T]."""
+
+    whole: dense.Window
+    after_T_eps: dense.Window
+    W: dense.Window
+    t_window: float
+
+    @property
+    def all(self) -> tuple[dense.Window, ...]:
+        return self.whole, self.after_T_eps, self.W
+
+
+def _value(v):
+    """A row's value: measured (:class:`dense.Pending`), computed from measured ones (a
+    function of nothing) or a number."""
+    if isinstance(v, dense.Pending):
+        return v.value
+    return v() if callable(v) else v
 
 
 @dataclass(frozen=True)
@@ -110,6 +140,39 @@ class _Signals:
         """z - z_h (z - z^s for the ideal observer)."""
         z = self.x(s) @ self.blk["H"].T
         return z - (self.zs(s) if self.blk["ideal"] > 0.5 else self.zh(s))
+
+    def V(self, s: Trajectory, P: np.ndarray, theta: np.ndarray) -> np.ndarray:
+        """V of (18): e' P e + |theta - theta^|^2 / delta."""
+        e, err_th = self.e(s), theta - self.th(s)
+        return (np.einsum("ti,ij,tj->t", e, P, e)
+                + np.sum(err_th ** 2, axis=1) / self.blk["delta"])
+
+
+@dataclass(frozen=True)
+class _Series:
+    """A series of one observer from rows of the run's z and y, computed when they are read
+    (:class:`hgo.outputs.recording.Derived`): ``saturated`` (z_h^s), ``aux`` (z = H x),
+    ``theta_error`` (th^ - theta), ``lyapunov`` ([V, R^2])."""
+
+    sig: _Signals
+    what: str
+    theta: np.ndarray
+    P: np.ndarray | None = None
+    R2: float = math.nan
+
+    def __call__(self, z: np.ndarray, y: np.ndarray) -> np.ndarray:
+        s, sig = SimpleNamespace(z=z, y=y), self.sig
+        if self.what == "saturated":
+            return sig.zs(s)
+        if self.what == "aux":
+            return sig.x(s) @ sig.blk["H"].T
+        if self.what == "theta_error":
+            return sig.th(s) - self.theta
+        V = sig.V(s, self.P, self.theta)
+        return np.column_stack([V, np.full_like(V, self.R2)])
+
+    def of(self, traj: Trajectory, columns: int) -> Derived:
+        return Derived(self, (traj.z, traj.y), columns)
 
 
 def psi_rows(p, xa: np.ndarray, u: np.ndarray) -> np.ndarray:
@@ -200,27 +263,34 @@ class DHLMMetrics:
         n, nn, nq = sig.sizes
         theta = self.true_theta(system)
         zn = obs.state_names[:nn]
-        out.series += [
+        out.series += [  # (computed when read: none of the run's length held here)
             Series(f"/observer/{name}/hgo/raw", zn, sig.zh(traj)),
-            Series(f"/observer/{name}/hgo/saturated", [f"{s}_sat" for s in zn], sig.zs(traj)),
+            Series(f"/observer/{name}/hgo/saturated", [f"{s}_sat" for s in zn],
+                   _Series(sig, "saturated", theta).of(traj, nn)),
             Series(f"/observer/{name}/aux", [f"z{s[2:]}" for s in zn],
-                   sig.x(traj) @ blk["H"].T),
+                   _Series(sig, "aux", theta).of(traj, nn)),
             Series(f"/observer/{name}/theta_error", [f"theta_err{i + 1}" for i in range(nq)],
-                   sig.th(traj) - theta)]
-        rows = self._hgo_rows(system, traj, k, zn, blk["ideal"] > 0.5, blk, blk["eps"])
-        rows += self._state_rows(sig, traj, n)
-        rows += self._theta_rows(sig, traj, theta, nq)
-        dense.release(steps_of(traj), self.window_start, traj.t_stop)  # W: done with it
+                   _Series(sig, "theta_error", theta).of(traj, nq))]
+        run, T = steps_of(traj), traj.t_stop
+        win = _Windows(dense.Window(run, 0.0, T), dense.Window(run, self.T_eps_factor
+                                                               * blk["eps"], T),
+                       dense.Window(run, self.window_start, T), self.window_start)
+        # every row asked for first (measured values pending), then each window measured in
+        # one pass over its steps
+        rows = self._hgo_rows(system, traj, k, zn, blk["ideal"] > 0.5, blk, blk["eps"], win)
+        rows += self._state_rows(sig, win, n)
+        rows += self._theta_rows(sig, traj, theta, nq, win)
         if self.theory:
             beta_meas = next(v for q, v, _ in rows if q == "beta_measured")
-            rows += self._theory(system, traj, obs, sig, theta, beta_meas, out)
+            rows += self._theory(system, traj, obs, sig, theta, beta_meas, out, win)
         for q, v, b in rows:
-            out.rows.append({"observer": name, "quantity": q, "empirical": v, "bound": b})
+            out.rows.append({"observer": name, "quantity": q, "empirical": _value(v),
+                             "bound": _value(b)})
+        for w in win.all:  # done with them
+            dense.release(run, w.a, w.b)
 
-    def _hgo_rows(self, system, traj, k, zn, ideal, blk, eps) -> list:
+    def _hgo_rows(self, system, traj, k, zn, ideal, blk, eps, win: _Windows) -> list:
         """Peaks, saturation times, end of peaking, eta of (13), lags of the HGO (6)."""
-        run, T = steps_of(traj), traj.t_stop
-        W = (self.window_start, T)
         sig = _Signals(system.plant.nx, system.z_slices[k + 1][0], blk)
         da, _ = system.d_slices[k]
         d = traj.d[-1, da:]
@@ -229,49 +299,54 @@ class DHLMMetrics:
         rows += [("t_sat_first", math.nan if d[0] < 0 else float(d[0]), None),
                  ("t_sat_last", math.nan if d[1] < 0 else float(d[1]), None)]
         if not ideal:
-            rows.append(("t_end_peaking", max(
-                settle_time(run, lambda s, j=j: sig.zerr(s)[:, j], self.peak_band, *W)
-                for j in range(nn)), None))
+            ends = [settling(win.whole, lambda s, j=j: sig.zerr(s)[:, j], self.peak_band,
+                             win.t_window) for j in range(nn)]
+            rows.append(("t_end_peaking", lambda: max(e.value for e in ends), None))
         for i, g in enumerate(self._block_gains(blk)):
             poles = np.linalg.eigvals(ac.hgo_matrix(g)) / eps
             rows += [(f"hgo{i + 1}_pole_slowest_re", float(poles.real.max()), None),
                      (f"hgo{i + 1}_pole_fastest_re", float(poles.real.min()), None)]
-        T_eps = self.T_eps_factor * eps
-        beta_meas = dense.maximum(run, lambda s: np.linalg.norm(
-            self._eta(sig.zerr(s), blk, eps), axis=1), T_eps, T)[0] / eps
-        dense.release(run, T_eps, T)  # (sampled again for the last row of _theory)
-        rows += [("T_eps", T_eps, None), ("beta_measured", float(beta_meas), None)]
-        h_abs = dense.LastValue(lambda s: self._h_abs(system, s, blk))
-        h_max = [dense.maximum(run, lambda s, j=j: h_abs(s)[:, j], *W)[0] for j in range(nn)]
-        lags = self._lags(None, blk, eps, np.array(h_max))
+        beta_meas = win.after_T_eps.maximum(lambda s: np.linalg.norm(
+            self._eta(sig.zerr(s), blk, eps), axis=1)).then(lambda m: float(m[0] / eps))
+        rows += [("T_eps", self.T_eps_factor * eps, None), ("beta_measured", beta_meas, None)]
+        h_max = self._h_max(system, blk, win.W, nn)
+        lags = functools.cache(lambda: self._lags(None, blk, eps, np.array(
+            [h.value for h in h_max])))
         for j in range(nn):
-            peak = dense.maximum(run, lambda s, j=j: np.abs(sig.zerr(s)[:, j]), *W)[0]
-            rows.append((f"max_abs_zerr{j + 1}_W", float(peak), None))
+            peak = win.W.maximum(lambda s, j=j: np.abs(sig.zerr(s)[:, j]))
+            rows.append((f"max_abs_zerr{j + 1}_W", peak.then(lambda m: float(m[0])), None))
             if not ideal:
-                rows.append((f"lag_zerr{j + 1}_W", float(lags[j]), None))
+                rows.append((f"lag_zerr{j + 1}_W", lambda j=j: float(lags()[j]), None))
         return rows
 
-    def _state_rows(self, sig: _Signals, traj: Trajectory, n: int) -> list:
+    def _h_max(self, system: System, blk: dict, window: dense.Window, nn: int
+               ) -> list[dense.Pending]:
+        """max |h_i| of (12) over ``window``, per z entry (|h| computed once per chunk for
+        every entry; compiled when the window has many scan points)."""
+        many = window.size() >= COMPILE_ROWS
+        h_abs = dense.LastValue(lambda s: self._h_abs(system, s, blk, compiled=many))
+        return [window.maximum(lambda s, j=j: h_abs(s)[:, j]).then(lambda m: m[0])
+                for j in range(nn)]
+
+    def _state_rows(self, sig: _Signals, win: _Windows, n: int) -> list:
         """max |e_i| (and when), on W too, RMS e_i on W, settling of ||e||."""
-        run, T = steps_of(traj), traj.t_stop
-        W = (self.window_start, T)
         rows = []
         for i in range(n):
             abs_e = lambda s, i=i: np.abs(sig.e(s)[:, i])  # noqa: E731
-            peak, t_peak = dense.maximum(run, abs_e, 0.0, T)
-            rows += [(f"max_abs_e{i + 1}", peak, None), (f"t_max_abs_e{i + 1}", t_peak, None),
-                     (f"max_abs_e{i + 1}_W", dense.maximum(run, abs_e, *W)[0], None),
-                     (f"rms_e{i + 1}_W", dense.rms(run, lambda s, i=i: sig.e(s)[:, i], *W),
-                      None)]
+            peak = win.whole.maximum(abs_e)
+            rows += [(f"max_abs_e{i + 1}", peak.then(lambda m: m[0]), None),
+                     (f"t_max_abs_e{i + 1}", peak.then(lambda m: m[1]), None),
+                     (f"max_abs_e{i + 1}_W", win.W.maximum(abs_e).then(lambda m: m[0]), None),
+                     (f"rms_e{i + 1}_W", win.W.rms(lambda s, i=i: sig.e(s)[:, i]), None)]
         enorm = lambda s: np.linalg.norm(sig.e(s), axis=1)  # noqa: E731
-        return rows + [(f"t_settle_e_{b:g}", settle_time(run, enorm, b, *W), None)
+        return rows + [(f"t_settle_e_{b:g}", settling(win.whole, enorm, b, win.t_window), None)
                        for b in self.state_bands]
 
-    def _theta_rows(self, sig: _Signals, traj: Trajectory, theta: np.ndarray, nq: int) -> list:
+    def _theta_rows(self, sig: _Signals, traj: Trajectory, theta: np.ndarray, nq: int,
+                    win: _Windows) -> list:
         """theta^ at the end, its mean / min / max on W and over the run, the RMS relative
         error on W, settling within pct % and the share of W within 1 and 5 %."""
         run, T = steps_of(traj), traj.t_stop
-        W = (self.window_start, T)
         end = sig.th(run.at(np.array([T])))[0]
         rows = []
         for i in range(nq):
@@ -279,16 +354,17 @@ class DHLMMetrics:
             th = lambda s, i=i: sig.th(s)[:, i]  # noqa: E731
             rel = lambda s, i=i: (sig.th(s)[:, i] - theta[i]) / abs(theta[i])  # noqa: E731
             rows += [(f"{s_}_end", float(end[i]), None),
-                     (f"mean_{s_}_W", dense.mean(run, th, *W), None),
-                     (f"min_{s_}_W", dense.minimum(run, th, *W)[0], None),
-                     (f"max_{s_}_W", dense.maximum(run, th, *W)[0], None),
-                     (f"min_{s_}", dense.minimum(run, th, 0.0, T)[0], None),
-                     (f"max_{s_}", dense.maximum(run, th, 0.0, T)[0], None),
-                     (f"rms_rel_theta_err{i + 1}_W", dense.rms(run, rel, *W), None)]
-            rows += [(f"t_settle_theta{i + 1}_{pct:g}pct", settle_time(run, rel, pct / 100, *W),
-                      None) for pct in self.theta_pcts]
-            rows += [(f"frac_W_theta{i + 1}_within_{pct:g}pct", dense.fraction_above(
-                run, lambda s, rel=rel, pct=pct: pct / 100 - np.abs(rel(s)), 0.0, *W), None)
+                     (f"mean_{s_}_W", win.W.mean(th), None),
+                     (f"min_{s_}_W", win.W.minimum(th).then(lambda m: m[0]), None),
+                     (f"max_{s_}_W", win.W.maximum(th).then(lambda m: m[0]), None),
+                     (f"min_{s_}", win.whole.minimum(th).then(lambda m: m[0]), None),
+                     (f"max_{s_}", win.whole.maximum(th).then(lambda m: m[0]), None),
+                     (f"rms_rel_theta_err{i + 1}_W", win.W.rms(rel), None)]
+            rows += [(f"t_settle_theta{i + 1}_{pct:g}pct",
+                      settling(win.whole, rel, pct / 100, win.t_window), None)
+                     for pct in self.theta_pcts]
+            rows += [(f"frac_W_theta{i + 1}_within_{pct:g}pct", win.W.fraction_above(
+                lambda s, rel=rel, pct=pct: pct / 100 - np.abs(rel(s)), 0.0), None)
                 for pct in (1.0, 5.0)]
         return rows
 
@@ -320,10 +396,12 @@ class DHLMMetrics:
         return eta
 
     @staticmethod
-    def _h_abs(system: System, traj: Trajectory, blk: dict) -> np.ndarray:
+    def _h_abs(system: System, traj: Trajectory, blk: dict, compiled: bool | None = None
+               ) -> np.ndarray:
         """|h_i(t)| of (12) per z entry (the block's h; the derivative of z_iqi minus
-        b_i2 u), from the plant's own vector field on the output grid."""
-        dx = vector_field(system.plant, traj.t, traj.z[:, :system.plant.nx], traj.u)
+        b_i2 u), from the plant's own vector field at the samples (``compiled``: of
+        :func:`vector_field`)."""
+        dx = vector_field(system.plant, traj.t, traj.z[:, :system.plant.nx], traj.u, compiled)
         H, Bz2 = blk["H"], blk["Bz2"]
         first = blk["first"].astype(int)
         hs = np.zeros((len(traj.t), H.shape[0]))
@@ -357,11 +435,11 @@ class DHLMMetrics:
             j += qi
         return lags
 
-    def _theory(self, system, traj, obs, sig: _Signals, theta, beta_meas, out):
+    def _theory(self, system, traj, obs, sig: _Signals, theta, beta_meas: dense.Pending,
+                out: PostOutput, win: _Windows) -> list:
         from hgo.papers.dimassi import theory
 
         blk = sig.blk
-        run, T = steps_of(traj), traj.t_stop
         A, B, H, L, M = blk["A"], blk["B"], blk["H"], blk["L"], blk["M"]
         K_phi, K_psi = blk["K_phi"], (blk["K_psi"] if blk["psi_at"] > 0.5 else 0.0)
         chk = theory.check_conditions(A, B, H, L, M)
@@ -378,34 +456,36 @@ class DHLMMetrics:
         rows += [("P11", float(chk.P[0, 0]), None),
                  ("margin10", chk.margin10(nB, K_phi, K_psi * np.linalg.norm(theta)), None),
                  ("margin10_tight", chk.margin10(nB, K_phi, tight), None)]
-        psi_max = dense.maximum(run, lambda s: np.linalg.norm(
-            psi_rows(obs.p, sig.x(s), s.u).reshape(len(s.t), -1), axis=1), 0.0, T)[0]
-        u_max = dense.maximum(run, lambda s: np.max(np.abs(s.u), axis=1), 0.0, T)[0]
-        rows += [("u_max", u_max, None), ("psi_max_bound", float(np.hypot(1.0, u_max)), None)]
-        h_abs = dense.LastValue(lambda s: self._h_abs(system, s, blk))
-        h_max = max(dense.maximum(run, lambda s, j=j: h_abs(s)[:, j],
-                                  0.0, T)[0] for j in range(int(blk["N"])))
-        beta_an = max(theory.beta_analytic(g, h_max) for g in self._block_gains(blk))
-        args = (chk.P, chk.Q, L, M, B, theta, blk["delta"], blk["sigma"], blk["eps"])
-        thm = theory.theorem1(*args, beta_meas, psi_max, K_phi, K_psi)
-        thm_an = theory.theorem1(*args, beta_an, psi_max, K_phi, K_psi)
-        rows += [("psi_max", psi_max, None), ("h_max", h_max, None),
-                 ("beta_analytic", beta_an, None), ("tau", thm.tau, None), ("K0", thm.K0, None),
-                 ("K1", thm.K1, None), ("K2", thm.K2, None), ("K3", thm.K3, None),
-                 ("R2", thm.R2, None), ("R2_beta_analytic", thm_an.R2, None)]
-        use = thm if self.beta == "measured" else thm_an
+        psi_max = win.whole.maximum(lambda s: np.linalg.norm(
+            psi_rows(obs.p, sig.x(s), s.u).reshape(len(s.t), -1), axis=1)).then(
+            lambda m: m[0])
+        u_max = win.whole.maximum(lambda s: np.max(np.abs(s.u), axis=1)).then(lambda m: m[0])
+        h_each = self._h_max(system, blk, win.whole, int(blk["N"]))
 
-        def lyapunov(s: Trajectory) -> np.ndarray:  # V of (18)
-            e, err_th = sig.e(s), theta - sig.th(s)
-            return (np.einsum("ti,ij,tj->t", e, chk.P, e)
-                    + np.sum(err_th ** 2, axis=1) / blk["delta"])
+        max_V = win.after_T_eps.maximum(lambda s: sig.V(s, chk.P, theta)).then(lambda m: m[0])
 
-        V = lyapunov(traj)
-        out.series.append(Series(f"/observer/{obs.name}/lyapunov", ["V", "R2"],
-                                 np.column_stack([V, np.full_like(V, use.R2)])))
-        T_eps = self.T_eps_factor * blk["eps"]
-        rows.append(("max_V_after_T_eps", dense.maximum(run, lyapunov, T_eps, T)[0],
-                     use.R2 if math.isfinite(use.R2) else None))
+        @functools.cache
+        def bounds() -> tuple:
+            """h_max, beta_analytic, Theorem 1 with beta measured and analytic, the one in
+            force (from the measured maxima)."""
+            h_max = max(h.value for h in h_each)
+            beta_an = max(theory.beta_analytic(g, h_max) for g in self._block_gains(blk))
+            args = (chk.P, chk.Q, L, M, B, theta, blk["delta"], blk["sigma"], blk["eps"])
+            thm = theory.theorem1(*args, beta_meas.value, psi_max.value, K_phi, K_psi)
+            thm_an = theory.theorem1(*args, beta_an, psi_max.value, K_phi, K_psi)
+            return h_max, beta_an, thm, thm_an, thm if self.beta == "measured" else thm_an
+
+        rows += [("u_max", u_max, None),
+                 ("psi_max_bound", lambda: float(np.hypot(1.0, u_max.value)), None),
+                 ("psi_max", psi_max, None), ("h_max", lambda: bounds()[0], None),
+                 ("beta_analytic", lambda: bounds()[1], None)]
+        rows += [(q, lambda q=q: getattr(bounds()[2], q), None)
+                 for q in ("tau", "K0", "K1", "K2", "K3", "R2")]
+        rows += [("R2_beta_analytic", lambda: bounds()[3].R2, None),
+                 ("max_V_after_T_eps", max_V,
+                  lambda: bounds()[4].R2 if math.isfinite(bounds()[4].R2) else None)]
+        out.series.append(Series(f"/observer/{obs.name}/lyapunov", ["V", "R2"], _Series(
+            sig, "lyapunov", theta, chk.P, bounds()[4].R2).of(traj, 2)))
         return rows
 
 
