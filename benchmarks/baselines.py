@@ -72,11 +72,23 @@ def b_solve_ivp(e0, p2, t_end, dt_out, rtol, atol, method="RK45", full=True):
     return t_eval, sol.y.T
 
 
+N_B = 5  # the states hgo integrates for B: plant x1, x2 and observer x^1, x^2, r
+B_REC = N_B + 1 + 1 + 2 + 1  # a record row: z, y, m, x^, t (hgo's Trajectory; no d, no u)
+
+
 @numba.njit(inline="always")
-def _b_f(s0, s1, s2, p2, out):
-    out[0] = s1 + B_NU1 * s0 - B_K1 * s2 * s0
-    out[1] = -B_K2 * s2 * s2 * s0
-    out[2] = B_P1 * ((s0 * s0 - p2) * s2 ** (1.0 - 2.0 * B_B) + p2 / s2 ** 4)
+def _b_f(s, p2, out):
+    """Plant (18) (nu2 = 0) and observer (5)-(7) with the sign-indefinite law (6), as hgo
+    integrates them: s = [x1, x2, x^1, x^2, r], e = x^1 - y, y = x1 (no noise)."""
+    e = s[2] - s[0]
+    r = s[4]
+    r2 = r * r
+    out[0] = s[1] + B_NU1 * s[0]
+    out[1] = 0.0
+    out[2] = s[3] + B_NU1 * s[2] - B_K1 * r * e
+    out[3] = -B_K2 * r2 * e
+    # r^(1 - 2b) as exp((1 - 2b) log r) (r >= 1), r^4 by multiplication: as hgo's (the faster)
+    out[4] = B_P1 * ((e * e - p2) * math.exp((1.0 - 2.0 * B_B) * math.log(r)) + p2 / (r2 * r2))
 
 
 _A = (1 / 5, 3 / 40, 9 / 40, 44 / 45, -56 / 15, 32 / 9, 19372 / 6561, -25360 / 2187,
@@ -97,7 +109,7 @@ _P = np.array([
 @numba.njit(inline="always")
 def _b_dense(k, s, hh, th, so):
     """The 4th-order continuous extension of the step [t, t + hh] at t + th hh."""
-    for i in range(3):
+    for i in range(N_B):
         acc_i = 0.0
         for j in range(7):
             if j == 1:
@@ -108,30 +120,72 @@ def _b_dense(k, s, hh, th, so):
 
 
 @numba.njit(inline="always")
-def _b_point(e1, e2, acc, weight):
-    """One point of the window metrics: weight * (e1^2, e2^2, (y^ - y)^2 = e1^2) into the
-    integrals, ||e|| into the running maximum."""
-    q0 = e1 * e1
-    q1 = e2 * e2
+def _b_point(s, acc, weight):
+    """One point of the window metrics at the state s: weight * ((x^1 - x1)^2, (x^2 - x2)^2,
+    (y^ - y)^2) into the integrals (y^ = x^1, y = x1), ||x^ - x|| into the running
+    maximum."""
+    q0 = (s[2] - s[0]) ** 2
+    q1 = (s[3] - s[1]) ** 2
     acc[0] += weight * q0
     acc[1] += weight * q1
     acc[2] += weight * q0
     acc[3] = max(acc[3], math.sqrt(q0 + q1))
 
 
-@numba.njit(cache=True, error_model="numpy")
-def b_kernel(e10, e20, p2, t_end, dt_out, rtol, atol, h0, t_window, rec, acc):
-    """Hand-written DOPRI5 for problem B; ``rec`` (n_out, 3) filled if it has rows.
+@numba.njit(inline="always")
+def _b_emit(rec, k, t, s):
+    """Output k at t: hgo's Trajectory row z, y = x1 + m, m = 0 (no noise), x^ = (x^1, x^2),
+    t (``B_REC`` columns)."""
+    for i in range(N_B):
+        rec[k, i] = s[i]
+    rec[k, N_B] = s[0]
+    rec[k, N_B + 1] = 0.0
+    rec[k, N_B + 2] = s[2]
+    rec[k, N_B + 3] = s[3]
+    rec[k, N_B + 4] = t
 
-    acc = [int e1^2, int e2^2, int (y^ - y)^2, max ||e||, window length] over the trailing
-    window, as hgo's run computes them (``kernel_template``'s ``_window_step``): each
-    step's part of the window by 3-point Gauss-Legendre on its continuous extension, the
-    maximum at those nodes and at the step ends. Returns the number of accepted steps.
+
+@numba.njit(inline="always")
+def _b_initial_step(s, p2, k, st, rtol, atol, h_max):
+    """Hairer's starting step from f0 = k[0] (one evaluation into k[1]), as hgo's."""
+    d0 = 0.0
+    d1 = 0.0
+    for i in range(N_B):
+        sc = atol + rtol * abs(s[i])
+        d0 += (s[i] / sc) ** 2
+        d1 += (k[0, i] / sc) ** 2
+    d0 = math.sqrt(d0 / N_B)
+    d1 = math.sqrt(d1 / N_B)
+    h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
+    h0 = min(h0, h_max)
+    for i in range(N_B):
+        st[i] = s[i] + h0 * k[0, i]
+    _b_f(st, p2, k[1])
+    d2 = 0.0
+    for i in range(N_B):
+        d2 += ((k[1, i] - k[0, i]) / (atol + rtol * abs(s[i]))) ** 2
+    d2 = math.sqrt(d2 / N_B) / h0
+    dm = max(d1, d2)
+    h1 = max(1e-6, h0 * 1e-3) if dm <= 1e-15 else (0.01 / dm) ** 0.2
+    return min(100.0 * h0, h1, h_max)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def b_kernel(e10, e20, p2, t_end, dt_out, rtol, atol, h_max, t_window, rec, acc):
+    """Hand-written DOPRI5 for problem B on hgo's 5 states (plant and observer, from x = 0,
+    x^ = (e10, e20), r = 1); ``rec`` (n_out, ``B_REC``) filled with what hgo's call records
+    (``_b_emit``) if it has rows.
+
+    acc = [int (x^1 - x1)^2, int (x^2 - x2)^2, int (y^ - y)^2, max ||x^ - x||, window length]
+    over the trailing window, as hgo's run computes them (``kernel_template``'s
+    ``_window_step``): each step's part of the window by 3-point Gauss-Legendre on its
+    continuous extension, the maximum at those nodes and at the step ends. Returns the
+    number of accepted steps.
     """
-    k = np.zeros((7, 3))
-    s = np.array([e10, e20, 1.0])
-    st = np.zeros(3)
-    so = np.zeros(3)
+    k = np.zeros((7, N_B))
+    s = np.array([0.0, 0.0, e10, e20, 1.0])
+    st = np.zeros(N_B)
+    so = np.zeros(N_B)
     n_out = int(round(t_end / dt_out)) + 1
     t_win0 = t_end - t_window
     tol = 1e-12 * max(1.0, t_end)
@@ -139,57 +193,54 @@ def b_kernel(e10, e20, p2, t_end, dt_out, rtol, atol, h0, t_window, rec, acc):
     for j in range(5):
         acc[j] = 0.0
     if t_win0 <= tol:
-        _b_point(s[0], s[1], acc, 0.0)
+        _b_point(s, acc, 0.0)
     t = 0.0
-    h = h0
     k_out = 0
-    _b_f(s[0], s[1], s[2], p2, k[0])
+    _b_f(s, p2, k[0])
+    h = _b_initial_step(s, p2, k, st, rtol, atol, h_max)
     n_steps = 0
     while k_out < n_out:
         # outputs at or before t
         while k_out < n_out and k_out * dt_out <= t + tol:
             if record:
-                rec[k_out, 0] = s[0]
-                rec[k_out, 1] = s[1]
-                rec[k_out, 2] = s[2]
+                _b_emit(rec, k_out, k_out * dt_out, s)
             k_out += 1
         if k_out >= n_out:
             break
         retried = False
         while True:
-            last = t + h >= t_end - tol
-            hh = t_end - t if last else h
-            for i in range(3):
+            hh = min(h, h_max)
+            last = t + hh >= t_end - tol
+            if last:
+                hh = t_end - t
+            for i in range(N_B):
                 st[i] = s[i] + hh * _A[0] * k[0, i]
-            _b_f(st[0], st[1], st[2], p2, k[1])
-            for i in range(3):
+            _b_f(st, p2, k[1])
+            for i in range(N_B):
                 st[i] = s[i] + hh * (_A[1] * k[0, i] + _A[2] * k[1, i])
-            _b_f(st[0], st[1], st[2], p2, k[2])
-            for i in range(3):
+            _b_f(st, p2, k[2])
+            for i in range(N_B):
                 st[i] = s[i] + hh * (_A[3] * k[0, i] + _A[4] * k[1, i] + _A[5] * k[2, i])
-            _b_f(st[0], st[1], st[2], p2, k[3])
-            for i in range(3):
+            _b_f(st, p2, k[3])
+            for i in range(N_B):
                 st[i] = s[i] + hh * (_A[6] * k[0, i] + _A[7] * k[1, i] + _A[8] * k[2, i]
                                      + _A[9] * k[3, i])
-            _b_f(st[0], st[1], st[2], p2, k[4])
-            for i in range(3):
+            _b_f(st, p2, k[4])
+            for i in range(N_B):
                 st[i] = s[i] + hh * (_A[10] * k[0, i] + _A[11] * k[1, i] + _A[12] * k[2, i]
                                      + _A[13] * k[3, i] + _A[14] * k[4, i])
-            _b_f(st[0], st[1], st[2], p2, k[5])
-            for i in range(3):
+            _b_f(st, p2, k[5])
+            for i in range(N_B):
                 st[i] = s[i] + hh * (_B[0] * k[0, i] + _B[1] * k[2, i] + _B[2] * k[3, i]
                                      + _B[3] * k[4, i] + _B[4] * k[5, i])
-            _b_f(st[0], st[1], st[2], p2, k[6])
+            _b_f(st, p2, k[6])
             err = 0.0
-            for i in range(3):
+            for i in range(N_B):
                 e = hh * (_E[0] * k[0, i] + _E[1] * k[2, i] + _E[2] * k[3, i]
                           + _E[3] * k[4, i] + _E[4] * k[5, i] + _E[5] * k[6, i])
                 sc = atol + rtol * max(abs(s[i]), abs(st[i]))
                 err += (e / sc) ** 2
-            # RMS over the 5 states hgo integrates (plant x1, x2 and observer x^1, x^2, r):
-            # x = 0 stays exactly 0 (x1' = x2 + nu1 x1), so its two error terms are 0 and
-            # this is DOPRI5 on the same 5-state ODE as hgo and solve_ivp, with the same norm
-            err = math.sqrt(err / 5)
+            err = math.sqrt(err / N_B)  # the RMS norm, as hgo's and solve_ivp's
             if err <= 1.0:
                 break
             h = hh * max(0.2, 0.9 * err ** -0.2)
@@ -199,21 +250,20 @@ def b_kernel(e10, e20, p2, t_end, dt_out, rtol, atol, h0, t_window, rec, acc):
             a = max(t, t_win0)
             for q in range(3):
                 _b_dense(k, s, hh, (a + (t_new - a) * GAUSS_NODES[q] - t) / hh, so)
-                _b_point(so[0], so[1], acc, (t_new - a) * GAUSS_WEIGHTS[q])
+                _b_point(so, acc, (t_new - a) * GAUSS_WEIGHTS[q])
             acc[4] += t_new - a
         while k_out < n_out and k_out * dt_out < t_new - tol:  # dense output
             if record:
-                _b_dense(k, s, hh, (k_out * dt_out - t) / hh, so)
-                rec[k_out, 0] = so[0]
-                rec[k_out, 1] = so[1]
-                rec[k_out, 2] = so[2]
+                t_o = k_out * dt_out
+                _b_dense(k, s, hh, (t_o - t) / hh, so)
+                _b_emit(rec, k_out, t_o, so)
             k_out += 1
-        for i in range(3):
+        for i in range(N_B):
             s[i] = st[i]
             k[0, i] = k[6, i]
         t = t_new
         if t >= t_win0 - tol:  # the step end, for the maximum
-            _b_point(s[0], s[1], acc, 0.0)
+            _b_point(s, acc, 0.0)
         n_steps += 1
         fac = 10.0 if err == 0.0 else min(10.0, max(0.2, 0.9 * err ** -0.2))
         if retried:  # no growth right after a rejection (scipy, hgo)
@@ -222,11 +272,16 @@ def b_kernel(e10, e20, p2, t_end, dt_out, rtol, atol, h0, t_window, rec, acc):
     return n_steps
 
 
+def b_record_errors(rec: np.ndarray) -> np.ndarray:
+    """(e1, e2, r) = (x^1 - x1, x^2 - x2, r) from a ``b_kernel`` record."""
+    return np.c_[rec[:, 2] - rec[:, 0], rec[:, 3] - rec[:, 1], rec[:, 4]]
+
+
 @numba.njit(cache=True, parallel=True, error_model="numpy")
-def b_ensemble(E0, P2, t_end, dt_out, rtol, atol, h0, t_window, ACC):
-    empty = np.zeros((0, 3))
+def b_ensemble(E0, P2, t_end, dt_out, rtol, atol, h_max, t_window, ACC):
+    empty = np.zeros((0, B_REC))
     for i in numba.prange(E0.shape[0]):
-        b_kernel(E0[i, 0], E0[i, 1], P2[i], t_end, dt_out, rtol, atol, h0, t_window, empty,
+        b_kernel(E0[i, 0], E0[i, 1], P2[i], t_end, dt_out, rtol, atol, h_max, t_window, empty,
                  ACC[i])
 
 
@@ -274,26 +329,54 @@ def a_solve_ivp(s0, noise, noise_dt, t_end, t_switch, rtol, atol, method="RK45",
     return out
 
 
+A_DELTA = 1e12  # the switching zone's half-width (problems.a_system: never left)
+A_ND = 6  # the switched HGO's discrete state: gain, eps, t_enter, timer, n_switches, t_switch
+A_REC = 5 + A_ND + 2 + 2 + 1 + 2 + 1  # a record row: z, d, y (x1 + v, x3), m, u, x^, t
+
+
 @numba.njit(inline="always")
-def _a_f(t, s, eps, a1, a2, v, out):
+def _a_f(t, s, h1, h2, v, out):
+    """Plant (38) and observer (26) with the injection gains h1 = a1 / eps, h2 = a2 / eps^2."""
     u = 1.0 + 0.5 * math.sin(t)
     e = s[0] + v - s[3]
     phi0 = -0.11 * min(max(s[4], -A_SAT), A_SAT) + 0.1 * s[2] * u
     out[0] = s[1]
     out[1] = -A_A * s[1] + A_B * s[2] * u
     out[2] = -A_C * s[2] - A_D * s[1] * u + A_E
-    out[3] = s[4] + a1 / eps * e
-    out[4] = phi0 + a2 / (eps * eps) * e
+    out[3] = s[4] + h1 * e
+    out[4] = phi0 + h2 * e
+
+
+@numba.njit(inline="always")
+def _a_update(t, s, v, d, t_d):
+    """The switching scheme (Ahrens & Khalil Section 3.1, hgo's ``switched_hgo.update``) after
+    a step ending at t: d = [gain, eps, t_enter, timer, n_switches, t_switch]."""
+    if abs(s[0] + v - s[3]) > A_DELTA:  # outside the zone: H1, timer reset
+        d[2] = -1.0
+        d[3] = 0.0
+        if d[0] > 1.5:
+            d[0] = 1.0
+            d[4] += 1.0
+            d[5] = t
+    else:
+        if d[2] < 0.0:
+            d[2] = t
+        d[3] = t - d[2]
+        if d[0] < 1.5 and d[3] >= t_d - 1e-12 * max(1.0, t):  # T_d in the zone: H2
+            d[0] = 2.0
+            d[4] += 1.0
+            d[5] = t
+    d[1] = 5e-4 if d[0] < 1.5 else 0.01
 
 
 @numba.njit(inline="always")
 def _a_point(s, v, acc, prev, dt):
-    """A step end of the window metrics (hgo's RK4 ``_step_end``): the squared errors
-    (x^1 - x1)^2, (x^2 - x2)^2, (y^ - y)^2 with y = x1 + v, their trapezoid from the previous
-    step end (``dt`` after it; none at the window's first point, dt < 0), ||x^ - x|| into the
-    running maximum."""
+    """A step end of the window metrics (hgo's RK4 ``_step_end``): the squared errors of the
+    estimate x^ = (x^1, sat(x^2)), (x^1 - x1)^2, (x^2 - x2)^2, (y^ - y)^2 with y = x1 + v,
+    their trapezoid from the previous step end (``dt`` after it; none at the window's first
+    point, dt < 0), ||x^ - x|| into the running maximum."""
     q0 = (s[3] - s[0]) ** 2
-    q1 = (s[4] - s[1]) ** 2
+    q1 = (min(max(s[4], -A_SAT), A_SAT) - s[1]) ** 2
     q2 = (s[3] - (s[0] + v)) ** 2
     if dt >= 0.0:
         acc[0] += 0.5 * dt * (q0 + prev[0])
@@ -304,15 +387,37 @@ def _a_point(s, v, acc, prev, dt):
     acc[3] = max(acc[3], math.sqrt(q0 + q1))
 
 
+@numba.njit(inline="always")
+def _a_emit(rec, j, t, s, d, v):
+    """Output j at t: hgo's Trajectory row z, d, y = (x1 + v, x3), m = (v, 0), u,
+    x^ = (x^1, sat(x^2)), t (``A_REC`` columns)."""
+    for i in range(5):
+        rec[j, i] = s[i]
+    for i in range(A_ND):
+        rec[j, 5 + i] = d[i]
+    o = 5 + A_ND
+    rec[j, o] = s[0] + v
+    rec[j, o + 1] = s[2]
+    rec[j, o + 2] = v
+    rec[j, o + 3] = 0.0
+    rec[j, o + 4] = 1.0 + 0.5 * math.sin(t)
+    rec[j, o + 5] = s[3]
+    rec[j, o + 6] = min(max(s[4], -A_SAT), A_SAT)
+    rec[j, o + 7] = t
+
+
 @numba.njit(cache=True, error_model="numpy")
-def a_kernel(s0, noise, noise_dt, t_end, t_switch, stab, out_every, rec, t_window, acc):
+def a_kernel(s0, noise, noise_dt, t_end, t_d, stab, out_every, rec, t_window, acc):
     """Hand-written RK4 for problem A: substeps aligned to the noise samples, their number
-    from the stability margin of the active gain (rho = 1.4e5 then 100). ``rec`` receives
-    the state every ``out_every`` noise samples. The window metrics of hgo's run into
-    ``acc`` = [int (x^1 - x1)^2, int (x^2 - x2)^2, int (y^ - y)^2, max ||x^ - x||, window
-    length]: the trapezoid on the step ends in the trailing ``t_window`` (its start a noise
-    instant here: a step end; 0: none). Returns the number of RK4 steps."""
+    from the stability margin of the active gain (rho = 1.4e5 then 100), the switching
+    scheme after every substep (``_a_update``, delay timer ``t_d``). ``rec`` receives what
+    hgo's call records (``_a_emit``: z, d, y, m, u, x^, t) every ``out_every`` noise samples.
+    The window metrics of hgo's run into ``acc`` = [int (x^1 - x1)^2, int (x^2 - x2)^2,
+    int (y^ - y)^2, max ||x^ - x||, window length]: the trapezoid on the step ends in the
+    trailing ``t_window`` (its start a noise instant here: a step end; 0: none). Returns the
+    number of RK4 steps."""
     n = int(round(t_end / noise_dt))
+    dt_out = out_every * noise_dt
     s = s0.copy()
     k1 = np.zeros(5)
     k2 = np.zeros(5)
@@ -320,18 +425,20 @@ def a_kernel(s0, noise, noise_dt, t_end, t_switch, stab, out_every, rec, t_windo
     k4 = np.zeros(5)
     st = np.zeros(5)
     prev = np.zeros(3)
+    d = np.array([1.0, 5e-4, -1.0, 0.0, 0.0, -1.0])
     acc[:] = 0.0
     t_win0 = t_end - t_window if t_window > 0.0 else math.inf
     tol = 1e-12 * max(1.0, t_end)
     t_last = -1.0  # the previous step end in the window (none yet)
     n_steps = 0
-    rec[0] = s
+    _a_update(0.0, s, noise[0], d, t_d)
+    _a_emit(rec, 0, 0.0, s, d, noise[0])
     for k in range(n):
         t = k * noise_dt
-        if t < t_switch - 1e-12:
-            eps, a1, a2, rho = 5e-4, 71.0, 70.0, 70.0 / 5e-4
+        if d[0] < 1.5:
+            h1, h2, rho = 71.0 / 5e-4, 70.0 / (5e-4 * 5e-4), 70.0 / 5e-4
         else:
-            eps, a1, a2, rho = 0.01, 2.0, 1.0, 1.0 / 0.01
+            h1, h2, rho = 2.0 / 0.01, 1.0 / (0.01 * 0.01), 1.0 / 0.01
         n_sub = max(1, math.ceil(noise_dt / (stab / rho) - 1e-9))
         h = noise_dt / n_sub
         v = noise[k]
@@ -340,23 +447,25 @@ def a_kernel(s0, noise, noise_dt, t_end, t_switch, stab, out_every, rec, t_windo
             t_last = 0.0
         for j in range(n_sub):
             tj = t + j * h
-            _a_f(tj, s, eps, a1, a2, v, k1)
+            _a_f(tj, s, h1, h2, v, k1)
             for i in range(5):
                 st[i] = s[i] + 0.5 * h * k1[i]
-            _a_f(tj + 0.5 * h, st, eps, a1, a2, v, k2)
+            _a_f(tj + 0.5 * h, st, h1, h2, v, k2)
             for i in range(5):
                 st[i] = s[i] + 0.5 * h * k2[i]
-            _a_f(tj + 0.5 * h, st, eps, a1, a2, v, k3)
+            _a_f(tj + 0.5 * h, st, h1, h2, v, k3)
             for i in range(5):
                 st[i] = s[i] + h * k3[i]
-            _a_f(tj + h, st, eps, a1, a2, v, k4)
+            _a_f(tj + h, st, h1, h2, v, k4)
             for i in range(5):
                 s[i] += h / 6.0 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
             t_end_j = (k + 1) * noise_dt if j == n_sub - 1 else tj + h
+            _a_update(t_end_j, s, v, d, t_d)
             if t_end_j >= t_win0 - tol:
                 _a_point(s, v, acc, prev, t_end_j - t_last if t_last >= 0.0 else -1.0)
                 t_last = t_end_j
         n_steps += n_sub
         if (k + 1) % out_every == 0:
-            rec[(k + 1) // out_every] = s
+            j_out = (k + 1) // out_every
+            _a_emit(rec, j_out, j_out * dt_out, s, d, noise[min(k + 1, noise.shape[0] - 1)])
     return n_steps

@@ -70,6 +70,7 @@ import compile_bench  # noqa: E402
 import problems as pb  # noqa: E402
 from hand_papers import (  # noqa: E402
     APA_OBSERVERS,
+    APA_REC,
     DHLM_Z0,
     MORENO_Z0,
     apa_kernel,
@@ -87,7 +88,6 @@ MORENO = ["experiment=moreno_pe", "postprocess=none", "controller=moreno_sin", "
           "observer.circle.L=[200.0,120.0]"]
 GRID_N = 100  # 100 x 100 members
 NO_NOISE = np.zeros(1)
-NO_METRICS = np.zeros(2)  # the APA kernels: no window metrics
 
 
 def _rel_diff(a: np.ndarray, b: np.ndarray) -> float:
@@ -96,14 +96,20 @@ def _rel_diff(a: np.ndarray, b: np.ndarray) -> float:
     return float((np.abs(a - b) / scale).max())
 
 
+def _record(tr) -> np.ndarray:
+    """What hgo's call records, one row per output: z, d, y, m, u, x^, t (the hand kernels'
+    record layout; empty signals take no columns)."""
+    return np.column_stack([tr.z, tr.d, tr.y, tr.m, tr.u, tr.xh, tr.t])
+
+
 def case_a() -> tuple:
-    """(hgo call, hand call, difference of the trajectories and window metrics, hand call
-    without its window metrics) of problem A."""
+    """(hgo call, hand call, difference of the records and window metrics, hand call
+    without its window metrics) of problem A; the hand kernel records z, d, y, m, u, x^, t."""
     system, solver, noise = pb.a_system(), pb.a_solver(), pb.a_noise()
     s0 = np.concatenate([system.plant.x0, system.observers[0].z0])
     stab = solver.stability_safety * 2.785
     every = int(round(pb.A_DT_OUT / pb.A_NOISE_DT))
-    rec = np.zeros((int(round(pb.A_T / pb.A_DT_OUT)) + 1, 5))
+    rec = np.zeros((int(round(pb.A_T / pb.A_DT_OUT)) + 1, bl.A_REC))
     v = noise.samples[:, 0].copy()
 
     acc = np.zeros(system.n_acc())
@@ -117,19 +123,20 @@ def case_a() -> tuple:
 
     hand()
     tr = hgo()
-    diff = max(_rel_diff(rec, tr.z[:, :5]), _rel_diff(acc[None], tr.acc[None]))
+    diff = max(_rel_diff(rec, _record(tr)), _rel_diff(acc[None], tr.acc[None]))
     return hgo, hand, diff, lambda: hand(0.0)
 
 
 def case_b() -> tuple:
-    """(hgo call, hand call, difference of the trajectories and window metrics, hand call
-    without its window metrics) of problem B."""
+    """(hgo call, hand call, difference of the records and window metrics, hand call
+    without its window metrics) of problem B; the hand kernel integrates hgo's 5 states and
+    records z, y, m, x^, t (B has no d, no u)."""
     system, solver = pb.b_system(), pb.b_solver()
-    rec = np.zeros((int(round(pb.B_T / pb.B_DT)) + 1, 3))
+    rec = np.zeros((int(round(pb.B_T / pb.B_DT)) + 1, bl.B_REC))
     acc = np.zeros(system.n_acc())
 
     def hand(window: float = solver.t_window):
-        return bl.b_kernel(3.0, 3.0, 1.5, pb.B_T, pb.B_DT, pb.RTOL_B, pb.ATOL_B, 1e-3,
+        return bl.b_kernel(3.0, 3.0, 1.5, pb.B_T, pb.B_DT, pb.RTOL_B, pb.ATOL_B, solver.h_max,
                            window, rec, acc)
 
     def hgo():
@@ -137,7 +144,7 @@ def case_b() -> tuple:
 
     hand()
     tr = hgo()
-    diff = max(_rel_diff(rec, pb.b_errors(tr)), _rel_diff(acc[None], tr.acc[None]))
+    diff = max(_rel_diff(rec, _record(tr)), _rel_diff(acc[None], tr.acc[None]))
     return hgo, hand, diff, lambda: hand(0.0)
 
 
@@ -215,8 +222,9 @@ def case_dhlm() -> tuple:
 
 def case_apa() -> tuple:
     """apa_fig2: hgo integrates the three observers apart (solver.split_observers), each
-    with its own copy of the plant; the hand kernels the same, one after the other. The
-    difference is the largest over the observers' states and the plant's copies."""
+    with its own copy of the plant; the hand kernels the same, one after the other, each
+    recording its part of what hgo's call records (z, d, y, m, u, x^, t) and computing its
+    part of hgo's window metrics. The difference is the largest over the parts."""
     from hgo.core.config import compose
     from hgo.running.runner import build, run_experiment
 
@@ -224,24 +232,29 @@ def case_apa() -> tuple:
     s = exp.solver
     noise = exp.noise.sample(s.t_end, 1, exp.seed)
     v = noise.samples[:, 0].copy()
-    runs = [(*apa_kernel(name), np.zeros((int(round(s.t_end / s.dt_out)) + 1, 5)))
-            for name in APA_OBSERVERS]
-    starts = [start(v[0]) for _, start, _ in runs]
+    runs = [(*apa_kernel(name), np.zeros((int(round(s.t_end / s.dt_out)) + 1, APA_REC)),
+             np.zeros(5)) for name in APA_OBSERVERS]
+    starts = [start(v[0]) for _, start, _, _ in runs]
     p = np.zeros(1)
 
-    def hand():
-        for (kernel, _, rec), z0 in zip(runs, starts, strict=True):
+    def hand(window: float = s.t_window):
+        for (kernel, _, rec, acc), z0 in zip(runs, starts, strict=True):
             kernel(z0.copy(), p, v, noise.dt, s.t_end, s.dt_out, s.h_max, s.rtol, s.atol, rec,
-                   0.0, NO_METRICS)
+                   window, acc)
 
     def hgo():
         return run_experiment(exp)
 
     hand()
-    z = hgo().z
-    diff = max(_rel_diff(rec, z[:, [0, 1, 2 + 3 * k, 3 + 3 * k, 4 + 3 * k]])
-               for k, (_, _, rec) in enumerate(runs))
-    return hgo, hand, diff
+    r = hgo()
+    n_xh, n_obs = r.xh.shape[1], len(runs)
+    diff = 0.0
+    for k, (_, _, rec, acc) in enumerate(runs):
+        ours = np.column_stack([r.z[:, [0, 1, 2 + 3 * k, 3 + 3 * k, 4 + 3 * k]], r.d[:, k],
+                                r.y, r.m, r.u, r.xh[:, 2 * k:2 * k + 2], r.t])
+        metrics = r.acc[[2 * k, 2 * k + 1, n_xh + k, n_xh + n_obs + k, n_xh + 2 * n_obs]]
+        diff = max(diff, _rel_diff(rec, ours), _rel_diff(acc[None], metrics[None]))
+    return hgo, hand, diff, lambda: hand(0.0)
 
 
 COARSE_DT = 0.04  # --outputs: the coarse output grid (s) against the presets' 1 ms

@@ -92,12 +92,6 @@ def moreno_errors(t, w, p, m, sq):
 
 
 @numba.njit(inline="always")
-def no_errors(t, w, p, m, sq):
-    """No window metrics (the APA kernels run with window 0)."""
-    return
-
-
-@numba.njit(inline="always")
 def moreno_signals(t, rec, k, p, m):
     """What hgo records besides the state at output k, into ``rec[k, 4:]``: t, y = x1 + m,
     m, u = r' + a r, x^ = (x^1, x^2) (hgo's Trajectory.t, y, m, u, xh)."""
@@ -142,10 +136,25 @@ def _spow(w, r):
     return math.copysign(math.pow(abs(w), r), w)
 
 
+APA_REC = 5 + 1 + 1 + 1 + 1 + 2 + 1  # a record row: z, d, y, m, u, x^ (eta^), t
+
+
 def apa_kernel(name: str):
-    """(compiled run, z(0) before L(0), the L(0) function) of the observer ``name``."""
+    """(compiled run, z(0) before L(0), the L(0) function) of the observer ``name``. The run
+    records what hgo's call records for this observer's part (``APA_REC`` columns: z, d = 1
+    (L set at t = 0), y = eta1 + m, m, u, eta^ = F^{-1} of the saturated x^, t) and computes
+    its window metrics (the errors of eta^ against eta, of y^ = eta^1 against y)."""
     from hgo.observers.homogeneous_dynamic import model_terms
-    from hgo.plants.contois import clip, df2max, invariance_eps, reaction_rate, to_x
+    from hgo.plants.contois import (
+        clip,
+        df2max,
+        eta2_of_x,
+        invariance_eps,
+        reaction_rate,
+        to_x,
+        x2_high,
+        x2_low,
+    )
 
     kind, q, dynamic = APA_OBSERVERS[name]
     phi1, phi2, phi3 = APA_PHI
@@ -172,6 +181,31 @@ def apa_kernel(name: str):
         dw[3] = f2s - L * L * Lb * k2
         dw[4] = L * (phi1 * (phi2 - L) + phi3 * omega) if dynamic else 0.0
 
+    @numba.njit(inline="always")
+    def estimate(x1, x2):
+        """eta^ = F^{-1} of the saturated x^ (bounds at the saturated x^1, reading C7)."""
+        x1s = clip(x1, eps1, 1.0 - eps2)
+        x2s = clip(x2, x2_low(x1s, eps2, hbar), x2_high(x1s, hbar))
+        return x1s, eta2_of_x(x1s, x2s, hbar)
+
+    @numba.njit(inline="always")
+    def errors(t, w, p, m, sq):
+        """hgo's window errors: (eta^_j - eta_j)^2, then (y^ - y)^2 with y^ = eta^1."""
+        e1, e2 = estimate(w[2], w[3])
+        sq[0] = (e1 - w[0]) ** 2
+        sq[1] = (e2 - w[1]) ** 2
+        sq[2] = (e1 - (w[0] + m)) ** 2
+
+    @numba.njit(inline="always")
+    def signals(t, rec, k, p, m):
+        """rec[k, 5:]: d, y, m, u, eta^, t (hgo's Trajectory.d, y, m, u, xh, t)."""
+        rec[k, 5] = 1.0
+        rec[k, 6] = rec[k, 0] + m
+        rec[k, 7] = m
+        rec[k, 8] = apa_input(t)
+        rec[k, 9], rec[k, 10] = estimate(rec[k, 2], rec[k, 3])
+        rec[k, 11] = t
+
     def start(m0: float) -> np.ndarray:
         """z(0) with L(0) = phi2 + (phi3/phi1) Omega(0), y(0) with the first noise sample
         (reading C6, hgo's update at t = 0)."""
@@ -180,4 +214,4 @@ def apa_kernel(name: str):
         omega = model_terms(kind, apa_input(0.0), ys, x_hat[1], q, hbar, eps2, dfmax)[1]
         return np.array([*APA_ETA0, *x_hat, phi2 + phi3 / phi1 * omega])
 
-    return dop853_kernel(rhs, 5, no_errors, 0), start
+    return dop853_kernel(rhs, 5, errors, 2, signals), start
