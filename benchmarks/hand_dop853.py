@@ -46,6 +46,22 @@ N_F = dop.INTERPOLATOR_POWER  # 7
 ERR_EXP = -1.0 / 8.0
 GAUSS_NODES = np.array([0.5 - 0.5 * math.sqrt(0.6), 0.5, 0.5 + 0.5 * math.sqrt(0.6)])
 GAUSS_WEIGHTS = np.array([5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0])
+FASTMATH = {"contract", "arcp"}  # hgo's kernel flags (hgo.engine.codegen.FASTMATH)
+
+
+def noalias(dispatcher):
+    """``dispatcher`` compiling with LLVM ``noalias`` on its array arguments, as hgo's kernels
+    (``hgo.engine.codegen``: numba has the flag but no decorator option; left off if this
+    numba lacks the hook). Sound here: no two arguments of a run overlap."""
+    compiler = getattr(dispatcher, "_compiler", None)
+    if hasattr(compiler, "_customize_flags"):
+        compiler._customize_flags = _with_noalias
+    return dispatcher
+
+
+def _with_noalias(flags):
+    flags.noalias = True
+    return flags
 
 
 @numba.njit(inline="always")
@@ -175,7 +191,8 @@ def dop853_kernel(rhs, nz: int, errors, n_est: int, signals=_state_only):
                 metrics[j] += (b - a) * GAUSS_WEIGHTS[q] * sq[j]
         metrics[n_sq + 1] += b - a
 
-    @numba.njit(error_model="numpy")
+    @noalias
+    @numba.njit(error_model="numpy", fastmath=FASTMATH)
     def run(z, p, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, rec, window, metrics):
         K = np.zeros((N_EXT, nz))
         F = np.zeros((N_F, nz))

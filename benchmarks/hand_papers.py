@@ -133,6 +133,10 @@ def apa_input(t):
 
 @numba.njit(inline="always")
 def _spow(w, r):
+    """Signed power sign(w) |w|^r; w itself at r = 1 (the df2max and Omega1 observers, p = 0:
+    r a compile-time constant, the branch folded away)."""
+    if r == 1.0:
+        return w
     return math.copysign(math.pow(abs(w), r), w)
 
 
