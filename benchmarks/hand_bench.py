@@ -70,15 +70,21 @@ import compile_bench  # noqa: E402
 import problems as pb  # noqa: E402
 from hand_papers import (  # noqa: E402
     APA_OBSERVERS,
-    APA_REC,
     DHLM_Z0,
     MORENO_Z0,
-    apa_kernel,
+    apa_start,
     dhlm_kernel,
     moreno_kernel,
     moreno_kernel_signals,
 )
-from hand_unrolled import N_REC, dhlm_unrolled  # noqa: E402
+from hand_unrolled import (  # noqa: E402
+    APA_REC,
+    MORENO_REC,
+    N_REC,
+    apa_unrolled,
+    dhlm_unrolled,
+    moreno_unrolled,
+)
 from timing import interleaved_median_cpu  # noqa: E402
 
 REPS = 21
@@ -172,12 +178,12 @@ def case_paper(overrides: list[str], kernel, z0: np.ndarray) -> tuple:
     return hgo, hand, diff, lambda: hand(0.0)
 
 
-def case_signals(overrides: list[str], kernel, z0: np.ndarray, width: int, ours,
+def case_signals(overrides: list[str], kernel, z0: np.ndarray, width: int,
                  compared: list[int] | None = None) -> tuple:
-    """(hgo call, hand call, difference, hand call without its window metrics) of a paper
-    run whose hand kernel records what hgo's call records: ``width`` columns a row
-    (``compared`` of them: all if None) against ``ours(trajectory)``, and hgo's window
-    metrics. ``kernel(z, t_end, dt_out, h_max, rtol, atol, rec, window, acc)``."""
+    """(hgo call, hand call, difference, hand call without its window metrics) of a noiseless
+    paper run whose ``hand_unrolled`` kernel records what hgo's call records: ``width``
+    columns a row (``compared`` of them: all if None) against :func:`_record`, and hgo's
+    window metrics."""
     from hgo.core.config import compose
     from hgo.running.runner import build, run_experiment
 
@@ -187,27 +193,23 @@ def case_signals(overrides: list[str], kernel, z0: np.ndarray, width: int, ours,
     acc = np.zeros(exp.system.n_acc())
 
     def hand(window: float = s.t_window):
-        return kernel(z0.copy(), s.t_end, s.dt_out, s.h_max, s.rtol, s.atol, rec, window, acc)
+        return kernel(z0.copy(), NO_NOISE, np.inf, s.t_end, s.dt_out, s.h_max, s.rtol, s.atol,
+                      rec, window, acc)
 
     def hgo():
         return run_experiment(exp)
 
     hand()
     run = hgo()
-    mine = rec if compared is None else rec[:, compared]
-    diff = max(_rel_diff(mine, ours(run)), _rel_diff(acc[None], run.acc[None]))
+    mine, ours = (rec, _record(run)) if compared is None else (rec[:, compared],
+                                                               _record(run)[:, compared])
+    diff = max(_rel_diff(mine, ours), _rel_diff(acc[None], run.acc[None]))
     return hgo, hand, diff, lambda: hand(0.0)
 
 
-def _moreno_signals(z, t_end, dt_out, h_max, rtol, atol, rec, window, acc):
-    return moreno_kernel_signals(z, np.zeros(1), NO_NOISE, np.inf, t_end, dt_out, h_max, rtol,
-                                 atol, rec, window, acc)
-
-
 def case_moreno() -> tuple:
-    """Moreno against its hand kernel recording t, y, m, u, x^ too (``moreno_signals``)."""
-    return case_signals(MORENO, _moreno_signals, MORENO_Z0, 10, lambda r: np.column_stack(
-        [r.z, r.t, r.y, r.m, r.u, r.xh]))
+    """Moreno against ``hand_unrolled.moreno_unrolled`` (recording z, y, m, u, x^, t)."""
+    return case_signals(MORENO, moreno_unrolled, MORENO_Z0, MORENO_REC)
 
 
 def case_dhlm() -> tuple:
@@ -216,15 +218,15 @@ def case_dhlm() -> tuple:
     last step end with the HGO saturated): they move with the steps' round-off (t_sat_last
     by 2.7e-4 relative against hgo's, measured; every other column <= 3.1e-8)."""
     nz = DHLM_Z0.size
-    return case_signals(DHLM, dhlm_unrolled, DHLM_Z0, N_REC, lambda r: np.column_stack(
-        [r.z, r.y, r.m, r.u, r.xh, r.t]), [*range(nz), *range(nz + 2, N_REC)])
+    return case_signals(DHLM, dhlm_unrolled, DHLM_Z0, N_REC, [*range(nz), *range(nz + 2, N_REC)])
 
 
 def case_apa() -> tuple:
     """apa_fig2: hgo integrates the three observers apart (solver.split_observers), each
-    with its own copy of the plant; the hand kernels the same, one after the other, each
-    recording its part of what hgo's call records (z, d, y, m, u, x^, t) and computing its
-    part of hgo's window metrics. The difference is the largest over the parts."""
+    with its own copy of the plant; the hand kernels (``hand_unrolled.apa_unrolled``) the
+    same, one after the other, each recording its part of what hgo's call records (z, d, y,
+    m, u, x^, t) and computing its part of hgo's window metrics. The difference is the
+    largest over the parts."""
     from hgo.core.config import compose
     from hgo.running.runner import build, run_experiment
 
@@ -232,14 +234,13 @@ def case_apa() -> tuple:
     s = exp.solver
     noise = exp.noise.sample(s.t_end, 1, exp.seed)
     v = noise.samples[:, 0].copy()
-    runs = [(*apa_kernel(name), np.zeros((int(round(s.t_end / s.dt_out)) + 1, APA_REC)),
-             np.zeros(5)) for name in APA_OBSERVERS]
-    starts = [start(v[0]) for _, start, _, _ in runs]
-    p = np.zeros(1)
+    runs = [(apa_unrolled(name), apa_start(name, v[0]),
+             np.zeros((int(round(s.t_end / s.dt_out)) + 1, APA_REC)), np.zeros(5))
+            for name in APA_OBSERVERS]
 
     def hand(window: float = s.t_window):
-        for (kernel, _, rec, acc), z0 in zip(runs, starts, strict=True):
-            kernel(z0.copy(), p, v, noise.dt, s.t_end, s.dt_out, s.h_max, s.rtol, s.atol, rec,
+        for kernel, z0, rec, acc in runs:
+            kernel(z0.copy(), v, noise.dt, s.t_end, s.dt_out, s.h_max, s.rtol, s.atol, rec,
                    window, acc)
 
     def hgo():

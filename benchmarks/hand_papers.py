@@ -24,6 +24,18 @@ import numba
 import numpy as np
 from hand_dop853 import dop853_kernel
 
+from hgo.observers.homogeneous_dynamic import model_terms
+from hgo.plants.contois import (
+    clip,
+    df2max,
+    eta2_of_x,
+    invariance_eps,
+    reaction_rate,
+    to_x,
+    x2_high,
+    x2_low,
+)
+
 # Dimassi et al. Sec. IV values (conf/plant/robot_arm.yaml, conf/observer/dhlm_cascade.yaml)
 DHLM_I, DHLM_MGL = 0.5, 9.81
 DHLM_EPS, DHLM_G1, DHLM_G2, DHLM_S = 0.006, 6.0, 8.0, 150.0
@@ -63,16 +75,27 @@ MORENO_Z0 = np.array([0.0, 0.0, -70.0, 50.0])  # x(0) = 0, x^(0) = x(0) - e(0)
 
 
 @numba.njit(inline="always")
-def moreno_rhs(t, w, p, m, dw):
-    x1, x2, xh1, xh2 = w[0], w[1], w[2], w[3]
-    u = MORENO_AMP * math.cos(t) + MORENO_A * MORENO_AMP * math.sin(t)  # r' + a r
-    innov = x1 - xh1
+def moreno_u(t):
+    """u = r' + a r with r = 2 sin t (``controller=moreno_sin``)."""
+    return MORENO_AMP * math.cos(t) + MORENO_A * MORENO_AMP * math.sin(t)
+
+
+@numba.njit(inline="always")
+def moreno_f(t, m, x1, x2, xh1, xh2):
+    """The Moreno right-hand side (plant of Section 5, observer (3)), y = x1 + m; scalars in,
+    the derivative as a tuple out (``hand_unrolled`` inlines it into every stage)."""
+    u = moreno_u(t)
+    innov = x1 + m - xh1
     s = xh2 + MORENO_N * innov  # H x^ + N (y - C x^)
     psi = s * (s * s - 2.0)  # psi(s) = s^3 - 2 s
-    dw[0] = -x1 + x2 * (x2 * x2 - 1.0)
-    dw[1] = -MORENO_A * x2 + u
-    dw[2] = -xh1 + xh2 + MORENO_L1 * innov + psi
-    dw[3] = -MORENO_A * xh2 + MORENO_L2 * innov + u
+    return (-x1 + x2 * (x2 * x2 - 1.0), -MORENO_A * x2 + u,
+            -xh1 + xh2 + MORENO_L1 * innov + psi, -MORENO_A * xh2 + MORENO_L2 * innov + u)
+
+
+@numba.njit(inline="always")
+def moreno_rhs(t, w, p, m, dw):
+    """:func:`moreno_f` on the arrays of ``hand_dop853``."""
+    dw[0], dw[1], dw[2], dw[3] = moreno_f(t, m, w[0], w[1], w[2], w[3])
 
 
 @numba.njit(inline="always")
@@ -98,7 +121,7 @@ def moreno_signals(t, rec, k, p, m):
     rec[k, 4] = t
     rec[k, 5] = rec[k, 0] + m
     rec[k, 6] = m
-    rec[k, 7] = MORENO_AMP * math.cos(t) + MORENO_A * MORENO_AMP * math.sin(t)
+    rec[k, 7] = moreno_u(t)
     rec[k, 8] = rec[k, 2]
     rec[k, 9] = rec[k, 3]
 
@@ -117,7 +140,7 @@ moreno_kernel_signals = dop853_kernel(moreno_rhs, 4, moreno_errors, 2, moreno_si
 # the rest is written out for n = 2 with every setting a compile-time constant.
 APA_OBSERVERS = {  # rate bound kind (0 df2max, 1 Omega1, 2 Omega2), p = d_inf, dynamic gain
     "df2max": (0, 0.0, False), "omega1": (1, 0.0, True), "omega2": (2, 0.9, True)}
-APA_B, APA_PHI, APA_ELL, APA_HBAR_O = 0.5, (3.0, 0.01, 3.0), 3.0, 0.8
+APA_PHI, APA_ELL, APA_HBAR_O = (3.0, 0.01, 3.0), 3.0, 0.8
 APA_U_RANGE, APA_ETA0, APA_ETA_HAT0 = (0.01, 0.7), (0.3, 0.5), (0.5, 0.3)
 
 
@@ -140,82 +163,50 @@ def _spow(w, r):
     return math.copysign(math.pow(abs(w), r), w)
 
 
-APA_REC = 5 + 1 + 1 + 1 + 1 + 2 + 1  # a record row: z, d, y, m, u, x^ (eta^), t
-
-
-def apa_kernel(name: str):
-    """(compiled run, z(0) before L(0), the L(0) function) of the observer ``name``. The run
-    records what hgo's call records for this observer's part (``APA_REC`` columns: z, d = 1
-    (L set at t = 0), y = eta1 + m, m, u, eta^ = F^{-1} of the saturated x^, t) and computes
-    its window metrics (the errors of eta^ against eta, of y^ = eta^1 against y)."""
-    from hgo.observers.homogeneous_dynamic import model_terms
-    from hgo.plants.contois import (
-        clip,
-        df2max,
-        eta2_of_x,
-        invariance_eps,
-        reaction_rate,
-        to_x,
-        x2_high,
-        x2_low,
-    )
-
-    kind, q, dynamic = APA_OBSERVERS[name]
+@numba.njit(inline="always")
+def apa_f(t, m, eta1, eta2, x1, x2, L, kind, q, dynamic, eps1, eps2, dfmax):
+    """Plant (11) (hbar = 1) and observer (7)-(8) (n = 2, b = 1/2, model hbar_o) with the rate
+    bound ``kind``, p = ``q`` and a dynamic or constant gain; y = eta1 + m. Scalars in, the
+    derivative as a tuple out; every argument after L a compile-time constant where the
+    kernels call it."""
+    u = apa_input(t)
+    r = reaction_rate(eta1, eta2, 1.0)
+    y = eta1 + m
+    ys = clip(y, eps1, 1.0 - eps2)
+    Lb = math.sqrt(L)  # L^b, b = 1/2
+    s = (x1 - ys) / Lb
+    k1 = s + _spow(s, 1.0 / (1.0 - q))  # k1(s) = s + s^(1/(1-q)); k2(w) = w + w^(1+q)
+    k2 = APA_ELL * k1 + _spow(APA_ELL * k1, 1.0 + q)
+    f2s, omega = model_terms(kind, u, ys, x2, q, APA_HBAR_O, eps2, dfmax)
     phi1, phi2, phi3 = APA_PHI
+    return (r - u * eta1, -r + u * (1.0 - eta2), x2 - u * y - L * Lb * k1,
+            f2s - L * L * Lb * k2, L * (phi1 * (phi2 - L) + phi3 * omega) if dynamic else 0.0)
+
+
+@numba.njit(inline="always")
+def apa_estimate(x1, x2, eps1, eps2):
+    """eta^ = F^{-1} of the saturated x^ (bounds at the saturated x^1, reading C7)."""
+    x1s = clip(x1, eps1, 1.0 - eps2)
+    x2s = clip(x2, x2_low(x1s, eps2, APA_HBAR_O), x2_high(x1s, APA_HBAR_O))
+    return x1s, eta2_of_x(x1s, x2s, APA_HBAR_O)
+
+
+def apa_constants(name: str) -> dict:
+    """The compile-time constants of the observer ``name``: kind, q, dynamic, eps1, eps2,
+    dfmax (the arguments of :func:`apa_f` after L)."""
+    kind, q, dynamic = APA_OBSERVERS[name]
     eps1, eps2 = invariance_eps(APA_HBAR_O, *APA_U_RANGE)
-    dfmax = df2max(APA_HBAR_O, *APA_U_RANGE)["df2max"]
-    hbar, ell = APA_HBAR_O, APA_ELL
-    pow1 = 1.0 / (1.0 - q)  # k1(s) = s + s^(1/(1-q)); k2(w) = w + w^(1+q)
+    return {"kind": kind, "q": q, "dynamic": dynamic, "eps1": eps1, "eps2": eps2,
+            "dfmax": df2max(APA_HBAR_O, *APA_U_RANGE)["df2max"]}
 
-    @numba.njit(inline="always")
-    def rhs(t, w, p, m, dw):
-        u = apa_input(t)
-        eta1, eta2, x1, x2, L = w[0], w[1], w[2], w[3], w[4]
-        r = reaction_rate(eta1, eta2, 1.0)
-        dw[0] = r - u * eta1
-        dw[1] = -r + u * (1.0 - eta2)
-        y = eta1 + m
-        ys = clip(y, eps1, 1.0 - eps2)
-        Lb = math.sqrt(L)  # L^b, b = 1/2
-        s = (x1 - ys) / Lb
-        k1 = s + _spow(s, pow1)
-        k2 = ell * k1 + _spow(ell * k1, 1.0 + q)
-        f2s, omega = model_terms(kind, u, ys, x2, q, hbar, eps2, dfmax)
-        dw[2] = x2 - u * y - L * Lb * k1
-        dw[3] = f2s - L * L * Lb * k2
-        dw[4] = L * (phi1 * (phi2 - L) + phi3 * omega) if dynamic else 0.0
 
-    @numba.njit(inline="always")
-    def estimate(x1, x2):
-        """eta^ = F^{-1} of the saturated x^ (bounds at the saturated x^1, reading C7)."""
-        x1s = clip(x1, eps1, 1.0 - eps2)
-        x2s = clip(x2, x2_low(x1s, eps2, hbar), x2_high(x1s, hbar))
-        return x1s, eta2_of_x(x1s, x2s, hbar)
-
-    @numba.njit(inline="always")
-    def errors(t, w, p, m, sq):
-        """hgo's window errors: (eta^_j - eta_j)^2, then (y^ - y)^2 with y^ = eta^1."""
-        e1, e2 = estimate(w[2], w[3])
-        sq[0] = (e1 - w[0]) ** 2
-        sq[1] = (e2 - w[1]) ** 2
-        sq[2] = (e1 - (w[0] + m)) ** 2
-
-    @numba.njit(inline="always")
-    def signals(t, rec, k, p, m):
-        """rec[k, 5:]: d, y, m, u, eta^, t (hgo's Trajectory.d, y, m, u, xh, t)."""
-        rec[k, 5] = 1.0
-        rec[k, 6] = rec[k, 0] + m
-        rec[k, 7] = m
-        rec[k, 8] = apa_input(t)
-        rec[k, 9], rec[k, 10] = estimate(rec[k, 2], rec[k, 3])
-        rec[k, 11] = t
-
-    def start(m0: float) -> np.ndarray:
-        """z(0) with L(0) = phi2 + (phi3/phi1) Omega(0), y(0) with the first noise sample
-        (reading C6, hgo's update at t = 0)."""
-        x_hat = to_x(APA_ETA_HAT0, hbar)
-        ys = clip(APA_ETA0[0] + m0, eps1, 1.0 - eps2)
-        omega = model_terms(kind, apa_input(0.0), ys, x_hat[1], q, hbar, eps2, dfmax)[1]
-        return np.array([*APA_ETA0, *x_hat, phi2 + phi3 / phi1 * omega])
-
-    return dop853_kernel(rhs, 5, errors, 2, signals), start
+def apa_start(name: str, m0: float) -> np.ndarray:
+    """z(0) of the observer ``name``'s part, L(0) = phi2 + (phi3/phi1) Omega(0) with y(0)
+    including the first noise sample ``m0`` (reading C6, hgo's update at t = 0)."""
+    c = apa_constants(name)
+    phi1, phi2, phi3 = APA_PHI
+    x_hat = to_x(APA_ETA_HAT0, APA_HBAR_O)
+    ys = clip(APA_ETA0[0] + m0, c["eps1"], 1.0 - c["eps2"])
+    omega = model_terms(c["kind"], apa_input(0.0), ys, x_hat[1], c["q"], APA_HBAR_O,
+                        c["eps2"], c["dfmax"])[1]
+    return np.array([*APA_ETA0, *x_hat, phi2 + phi3 / phi1 * omega])
