@@ -6,14 +6,16 @@
 * Hand-written numba kernels for the two problems, specialised by hand (states unrolled,
   constants inlined): the reference for "close to compiled code".
 
-  - Problem B: adaptive DOPRI5 on the S-P error system (20), FSAL and the same
+  - Problem B: adaptive DOPRI5 on the 5 states hgo integrates (plant (18) and observer
+    (5)-(7), not the 3-state error system (20)), Hairer's starting step, FSAL and the same
     4th-order dense output and step control as hgo, output grid, the trailing-window
-    metrics as hgo computes them (Gauss-Legendre on the steps' continuous extensions);
-    its error norm is the RMS over the 5 states of plant + observer (the plant states are
-    exactly 0 and contribute 0), as in hgo and in the solve_ivp baseline.
+    metrics as hgo computes them (Gauss-Legendre on the steps' continuous extensions); it
+    records what hgo's call records (z, y, m, x^, t: ``B_REC`` columns).
   - Problem A: fixed-step RK4 on the DC motor + switched HGO, substeps aligned to the noise
-    samples, as many as the stability margin of the *active* gain needs; the
-    trailing-window metrics as hgo's RK4 computes them (trapezoid on the step ends).
+    samples, as many as the stability margin of the *active* gain needs, the switching
+    scheme after every substep; the trailing-window metrics as hgo's RK4 computes them
+    (trapezoid on the step ends); it records what hgo's call records (z, d, y, m, u, x^, t:
+    ``A_REC`` columns).
 
 * ``reference_*``: tight-tolerance references (scipy DOP853, rtol 1e-12, segment by
   segment between noise samples) for the accuracy columns.
@@ -77,18 +79,21 @@ B_REC = N_B + 1 + 1 + 2 + 1  # a record row: z, y, m, x^, t (hgo's Trajectory; n
 
 
 @numba.njit(inline="always")
-def _b_f(s, p2, out):
+def b_f(p2, m, x1, x2, z1, z2, r):
     """Plant (18) (nu2 = 0) and observer (5)-(7) with the sign-indefinite law (6), as hgo
-    integrates them: s = [x1, x2, x^1, x^2, r], e = x^1 - y, y = x1 (no noise)."""
-    e = s[2] - s[0]
-    r = s[4]
+    integrates them: e = x^1 - y, y = x1 + m. Scalars in, the derivative as a tuple out
+    (``hand_unrolled`` inlines it into every stage)."""
+    e = z1 - (x1 + m)
     r2 = r * r
-    out[0] = s[1] + B_NU1 * s[0]
-    out[1] = 0.0
-    out[2] = s[3] + B_NU1 * s[2] - B_K1 * r * e
-    out[3] = -B_K2 * r2 * e
     # r^(1 - 2b) as exp((1 - 2b) log r) (r >= 1), r^4 by multiplication: as hgo's (the faster)
-    out[4] = B_P1 * ((e * e - p2) * math.exp((1.0 - 2.0 * B_B) * math.log(r)) + p2 / (r2 * r2))
+    return (x2 + B_NU1 * x1, 0.0, z2 + B_NU1 * z1 - B_K1 * r * e, -B_K2 * r2 * e,
+            B_P1 * ((e * e - p2) * math.exp((1.0 - 2.0 * B_B) * math.log(r)) + p2 / (r2 * r2)))
+
+
+@numba.njit(inline="always")
+def _b_f(s, p2, out):
+    """:func:`b_f` on arrays (no noise): s = [x1, x2, x^1, x^2, r]."""
+    out[0], out[1], out[2], out[3], out[4] = b_f(p2, 0.0, s[0], s[1], s[2], s[3], s[4])
 
 
 _A = (1 / 5, 3 / 40, 9 / 40, 44 / 45, -56 / 15, 32 / 9, 19372 / 6561, -25360 / 2187,
@@ -287,8 +292,9 @@ def b_ensemble(E0, P2, t_end, dt_out, rtol, atol, h_max, t_window, ACC):
 
 # ----------------------------------------------------------------------------------------
 # Problem A: DC motor (Ahrens & Khalil (38)-(39)) with u = 1 + 0.5 sin t, HGO (26) with
-# H1 = (71/eps1, 70/eps1^2), eps1 = 5e-4 for t < t_switch, then H2 = (2/eps2, 1/eps2^2),
-# eps2 = 0.01; phi0 = -0.11 sat(x^2) + 0.1 x3 u; noise on x1 held every noise_dt.
+# H1 = (71/eps1, 70/eps1^2), eps1 = 5e-4 until T_d = 1 s in the zone |y - x^1| <= delta
+# (always here), then H2 = (2/eps2, 1/eps2^2), eps2 = 0.01; phi0 = -0.11 sat(x^2) + 0.1 x3 u;
+# noise on x1 held every noise_dt.
 # State s = [x1, x2, x3, x^1, x^2].
 # ----------------------------------------------------------------------------------------
 A_A, A_B, A_C, A_D, A_E = 0.1, 0.1, 2.0, 0.2, 200.0

@@ -15,21 +15,24 @@ process (all its threads), medians of interleaved calls (``REPS``).
 
 * A: switched DC motor (``problems.a_system``), RK4, against ``baselines.a_kernel``;
 * B: Sanfelice & Praly (20) (``problems.b_system``), DOPRI5 rtol 1e-8, against
-  ``baselines.b_kernel``;
+  ``hand_unrolled``'s DOPRI5 kernel of B (hgo's 5 states, plant and observer; 1.2x faster
+  than ``baselines.b_kernel``, the loop-over-arrays kernel that was the yardstick before);
 * APA: ``experiment=apa_fig2`` (T = 50, noise held 0.01, three observers integrated apart),
-  DOP853 rtol 1e-8, against ``hand_papers.apa_kernel`` (one per observer). The df2max
+  DOP853 rtol 1e-8, against ``hand_unrolled.apa_unrolled`` (one per observer). The df2max
   observer's x^2 crosses its saturation bounds ~2.3 times per noise sample; its steps
-  there depend on round-off, so its x^2 differs by up to ~1e-5 (the same arithmetic in
-  another order; before a624e71 hgo's own kernel differed as much between the process that
-  compiled it and one loading it from the cache); every other state to ~1e-8;
+  there depend on round-off, so its x^2 differs by up to ~1e-5 and its eta^2 (through the
+  saturation) by up to ~2e-4 (the same arithmetic in another order; hgo's own kernel moves
+  as much between builds: tests/test_preset_metrics); every other column to ~3e-7;
 * DHLM: ``experiment=dhlm_example``, DOP853 rtol 1e-10, against
-  ``hand_unrolled.dhlm_unrolled`` (issue 41: DOP853 written out stage by stage with scalar
-  locals and the right-hand side inlined, hgo's fast-math flags; 1.55x faster than
-  ``hand_papers.dhlm_kernel``, the loop-over-arrays kernel that was the yardstick before),
-  recording z, d, y, m, u, x^ and t as hgo's call does;
+  ``hand_unrolled.dhlm_unrolled``;
 * Moreno: ``experiment=moreno_pe`` (x2 = 2 sin t, a = 0.5, l2 = 120), DOP853 rtol 1e-10,
-  against ``hand_papers.moreno_kernel_signals`` (recording t, y, m, u, x^ besides the state,
-  as hgo's call does; issue 41: before, the state-only ``moreno_kernel``).
+  against ``hand_unrolled.moreno_unrolled``.
+
+The adaptive kernels (B, APA, DHLM, Moreno) are ``hand_unrolled``'s (issue 41): DOPRI5 or
+DOP853 written out stage by stage with scalar locals and the problem's right-hand side
+inlined, hgo's fast-math flags; on DHLM 1.4-1.55x faster than ``hand_dop853``'s
+loop-over-arrays kernel (``hand_papers.dhlm_kernel``), the yardstick of DHLM before
+2026-12-01 and of APA and Moreno until 2026-12-01 evening.
 
 Then the build time per ensemble member of a 10,000-member grid (``sp_ensemble`` with a
 100 x 100 grid over p2 and x^1(0): ``hgo.ensemble_runner.prepare_ensemble``, i.e. planning,
@@ -41,17 +44,20 @@ kept), and a new composition's compile of ``sp_fig1`` and ``dhlm_example``
 cached; issue 41's target <= 0.6 s). The last line:
 ``hgo_over_hand: A=<x> B=<x> APA=<x> DHLM=<x> Moreno=<x>``.
 
-The hand kernels compute what hgo's call computes besides the recorded trajectory: also
-the window metrics hgo's run reports, as hgo computes them, checked against hgo's (the
-difference column: the largest of the trajectory's and the metrics' differences): DHLM's
-and Moreno's (``hand_dop853``) and B's by 3-point Gauss-Legendre on each step's continuous
-extension, A's by the trapezoid on its RK4 step ends (B's and A's since the afternoon of
-2026-11-28: before, B's hand kernel integrated a trapezoid on the output grid, a metric hgo
-no longer computes, and A's none). The column "without its window metrics" times the same
-hand kernels with no window (the earlier yardstick). The APA kernels compute no window
-metrics. DHLM's and Moreno's hand kernels record what hgo's call records (the state and
-t, y, m, u, x^; DHLM's also d); A's, B's and APA's the state only, while hgo also records
-y, u and x^ (``--signals``: Moreno's state-only kernel against the one recording them).
+Every hand kernel computes and records what hgo's call computes and records (issue 41,
+item 4), checked against it (the difference column: the largest over the record's columns
+and the window metrics, relative to max(1, max |column|)): at each output the state z,
+the discrete state d, y, m, u, x^ and t (A: d of the switched HGO, its switching scheme
+run after every substep; B: no d, no u; APA: d = L set; DHLM's d, two step-end times,
+left out of the difference: they move with the steps' round-off), and hgo's window
+metrics as hgo computes them: by 3-point Gauss-Legendre on each step's continuous
+extension (B, APA, DHLM, Moreno), by the trapezoid on the RK4 step ends (A). Before
+2026-12-01 evening A's, B's and APA's recorded the state only, B integrated the 3-state
+error system from h0 = 1e-3, and APA computed no window metrics. The column "without its
+window metrics" times the same hand kernels with no window. What a hand kernel does not
+do that hgo's does: the state bound and finiteness checks after every step, the Ctrl-C
+flag, and (APA) the restart of the step size at the input's break points (t = 10, 20,
+35: three steps).
 """
 
 from __future__ import annotations
@@ -82,6 +88,8 @@ from hand_unrolled import (  # noqa: E402
     MORENO_REC,
     N_REC,
     apa_unrolled,
+    b_problem,
+    compile_kernel,
     dhlm_unrolled,
     moreno_unrolled,
 )
@@ -94,6 +102,7 @@ MORENO = ["experiment=moreno_pe", "postprocess=none", "controller=moreno_sin", "
           "observer.circle.L=[200.0,120.0]"]
 GRID_N = 100  # 100 x 100 members
 NO_NOISE = np.zeros(1)
+B_P2 = 1.5  # problems.b_system's p2
 
 
 def _rel_diff(a: np.ndarray, b: np.ndarray) -> float:
@@ -135,15 +144,16 @@ def case_a() -> tuple:
 
 def case_b() -> tuple:
     """(hgo call, hand call, difference of the records and window metrics, hand call
-    without its window metrics) of problem B; the hand kernel integrates hgo's 5 states and
-    records z, y, m, x^, t (B has no d, no u)."""
+    without its window metrics) of problem B; the hand kernel (``hand_unrolled``'s DOPRI5)
+    integrates hgo's 5 states and records z, y, m, x^, t (B has no d, no u)."""
     system, solver = pb.b_system(), pb.b_solver()
     rec = np.zeros((int(round(pb.B_T / pb.B_DT)) + 1, bl.B_REC))
     acc = np.zeros(system.n_acc())
+    kernel, z0 = compile_kernel(b_problem(B_P2)), system.z0()
 
     def hand(window: float = solver.t_window):
-        return bl.b_kernel(3.0, 3.0, 1.5, pb.B_T, pb.B_DT, pb.RTOL_B, pb.ATOL_B, solver.h_max,
-                           window, rec, acc)
+        return kernel(z0.copy(), NO_NOISE, np.inf, pb.B_T, pb.B_DT, solver.h_max, pb.RTOL_B,
+                      pb.ATOL_B, rec, window, acc)
 
     def hgo():
         return pb.simulate(system, solver, pb.no_noise(1))
@@ -282,10 +292,11 @@ def outputs_split(reps: int = REPS) -> None:
 
 
 def signals_split(reps: int = REPS) -> None:
-    """``--signals``: Moreno's call against its hand kernel recording the state only (the
-    ratio line's yardstick) and against the same hand kernel also recording what hgo's call
-    records at each output (t, y, m, u, x^: ``hand_papers.moreno_signals``), checked equal
-    to hgo's."""
+    """``--signals``: Moreno's call against ``hand_dop853``'s loop-over-arrays hand kernel
+    recording the state only (the ratio line's yardstick before issue 41) and against the
+    same hand kernel also recording what hgo's call records at each output (t, y, m, u, x^:
+    ``hand_papers.moreno_signals``), checked equal to hgo's. (The ratio line's yardstick is
+    now ``hand_unrolled.moreno_unrolled``.)"""
     from hgo.core.config import compose
     from hgo.running.runner import build, run_experiment
 

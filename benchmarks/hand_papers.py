@@ -1,8 +1,11 @@
-"""Hand-written numba kernels of the Dimassi et al. and Moreno runs (issue 24, item 5).
+"""The papers' problems written out by hand for the hand kernels (issue 24, item 5; issue 41).
 
 Each right-hand side is written out for its one problem (constants compiled in, states as
-scalars) and integrated by the hand DOP853 of :mod:`hand_dop853`, hgo's method at the
-presets' settings:
+scalars, the derivative a tuple: ``dhlm_f``, ``moreno_f``, ``apa_f``), integrated by the
+unrolled DOP853 of :mod:`hand_unrolled` (the ratio line's yardsticks) and, for DHLM and
+Moreno, by the loop-over-arrays DOP853 of :mod:`hand_dop853` (``dhlm_kernel``,
+``moreno_kernel``: ``hand_bench --outputs``, ``--signals``), hgo's method at the presets'
+settings:
 
 * DHLM: ``experiment=dhlm_example`` (Dimassi et al. Sec. IV): robot arm (24)-(25) under
   u = 5 (sin 2t + cos 3t), HGO (27) with the saturation S, adaptive observer (5), (7) with
@@ -14,6 +17,7 @@ presets' settings:
   a = 0.5, l = (200, 120), k = N = 2, x(0) = 0, e(0) = (70, -50): plant (Section 5) and
   observer (3); state [x1, x2, x^1, x^2]; DOP853 rtol 1e-10, atol 1e-12, h_max 0.01, 40 s,
   output every 1 ms.
+* APA: ``experiment=apa_fig2``, each observer's part of the split run (below).
 """
 
 from __future__ import annotations

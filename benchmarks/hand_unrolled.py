@@ -41,13 +41,36 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numba
+import numpy as np
 from hand_dop853 import FASTMATH, GAUSS_NODES, GAUSS_WEIGHTS
 from hand_papers import DHLM_S, apa_constants
 from scipy.integrate._ivp import dop853_coefficients as dop
+from scipy.integrate._ivp.rk import RK45
 
 from hgo.engine.codegen import cache_dir
 
 N_STAGES, N_EXT, N_F = dop.N_STAGES, dop.N_STAGES_EXTENDED, dop.INTERPOLATOR_POWER
+
+
+@dataclass(frozen=True)
+class Method:
+    """An embedded Runge-Kutta pair as hgo's ``hgo.engine.tableau`` takes it from scipy:
+    ``n_stages`` stages a step (then f at the new state, first same as last), ``n_ext``
+    with the continuous extension's extra ones, ``n_f`` coefficients of the extension a
+    state, the error exponent's inverse ``order`` (step factor 0.9 err^(-1/order))."""
+
+    name: str
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    n_stages: int
+    n_ext: int
+    n_f: int
+    order: float
+
+
+DOP853 = Method("dop853", dop.A[:N_EXT, :N_EXT], dop.B, dop.C[:N_EXT], N_STAGES, N_EXT, N_F, 8.0)
+DOPRI5 = Method("dopri5", RK45.A, RK45.B, RK45.C, RK45.n_stages, RK45.n_stages + 1, 4, 5.0)
 
 
 @dataclass(frozen=True)
@@ -68,6 +91,7 @@ class Problem:
     errors: Callable[[str], list[str]]
     start: tuple[str, ...] = ()
     update: Callable[[str], list[str]] = lambda ind: []
+    method: Method = DOP853
 
 
 N_SQ = 3  # every problem here: x^1, x^2 and y^ errors, metrics = integrals, max norm, length
@@ -85,15 +109,20 @@ def _combo(coefs, terms: list[str]) -> str:
 
 def _stage(pb: Problem, s: int, t: str, h: str, ind: str) -> list[str]:
     """Stage s: y = z + h sum_j A[s, j] k_j, then k_s = f(t + C[s] h, y)."""
+    A, C = pb.method.A, pb.method.C
     lines = [f"{ind}y{i} = z{i} + {h} * "
-             f"({_combo(dop.A[s, :s], [f'k{j}_{i}' for j in range(s)])})" for i in range(pb.nz)]
+             f"({_combo(A[s, :s], [f'k{j}_{i}' for j in range(s)])})" for i in range(pb.nz)]
     lines.append(f"{ind}{', '.join(_names(f'k{s}_', pb.nz))} = "
-                 f"{pb.rhs(f'{t} + {float(dop.C[s])!r} * {h}', ', '.join(_names('y', pb.nz)))}")
+                 f"{pb.rhs(f'{t} + {float(C[s])!r} * {h}', ', '.join(_names('y', pb.nz)))}")
     return lines
 
 
 def _extension(pb: Problem, x: str, out: str, ind: str) -> list[str]:
-    """out_i = the continuous extension at the fraction x (scipy's Horner form)."""
+    """out_i = the continuous extension at the fraction x (scipy's Horner form; DOPRI5:
+    hgo's z + x (f0 + x (f1 + x (f2 + x f3))))."""
+    if pb.method is DOPRI5:
+        return [f"{ind}{out}{i} = z{i} + {x} * (f0_{i} + {x} * (f1_{i} + {x} * (f2_{i} + {x} "
+                f"* f3_{i})))" for i in range(pb.nz)]
     lines = [f"{ind}s_ = 1.0 - {x}"]
     for i in range(pb.nz):
         v = f"f{N_F - 1}_{i}"
@@ -132,18 +161,28 @@ def _initial_step(pb: Problem, ind: str) -> list[str]:
           f"{ind}d2_ = 0.0"]
     L += [f"{ind}d2_ += ((k1_{i} - k0_{i}) / (atol + rtol * abs(z{i}))) ** 2" for i in range(nz)]
     return L + [f"{ind}d2_ = math.sqrt(d2_ / {nz}) / h0", f"{ind}dm = max(d1_, d2_)",
-                f"{ind}h1 = max(1e-6, h0 * 1e-3) if dm <= 1e-15 else (0.01 / dm) ** 0.125",
+                f"{ind}h1 = max(1e-6, h0 * 1e-3) if dm <= 1e-15 else "
+                f"(0.01 / dm) ** {1.0 / pb.method.order!r}",
                 f"{ind}h = min(100.0 * h0, h1, h_max)"]
 
 
 def _trial(pb: Problem, ind: str) -> list[str]:
-    """Stages 1-11, the new state n, f(t + hh, n) into k12, the error norm ``err``."""
-    nz = pb.nz
-    L = [line for s in range(1, N_STAGES) for line in _stage(pb, s, "t", "hh", ind)]
-    L += [f"{ind}n{i} = z{i} + hh * ({_combo(dop.B, [f'k{j}_{i}' for j in range(N_STAGES)])})"
+    """The stages, the new state n, f(t + hh, n) into the last stage, the error norm ``err``
+    (DOP853: scipy's combined estimate; DOPRI5: the RMS norm)."""
+    nz, me = pb.nz, pb.method
+    L = [line for s in range(1, me.n_stages) for line in _stage(pb, s, "t", "hh", ind)]
+    L += [f"{ind}n{i} = z{i} + hh * ({_combo(me.B, [f'k{j}_{i}' for j in range(me.n_stages)])})"
           for i in range(nz)]
-    L += [f"{ind}{', '.join(_names(f'k{N_STAGES}_', nz))} = "
-          f"{pb.rhs('t + hh', ', '.join(_names('n', nz)))}", f"{ind}e5 = 0.0", f"{ind}e3 = 0.0"]
+    L += [f"{ind}{', '.join(_names(f'k{me.n_stages}_', nz))} = "
+          f"{pb.rhs('t + hh', ', '.join(_names('n', nz)))}"]
+    if me is DOPRI5:
+        L += [f"{ind}err = 0.0"]
+        for i in range(nz):
+            ks = [f"k{j}_{i}" for j in range(me.n_stages + 1)]
+            L += [f"{ind}e = hh * ({_combo(RK45.E, ks)}) / "
+                  f"(atol + rtol * max(abs(z{i}), abs(n{i})))", f"{ind}err += e * e"]
+        return L + [f"{ind}err = math.sqrt(err / {nz})"]
+    L += [f"{ind}e5 = 0.0", f"{ind}e3 = 0.0"]
     for i in range(nz):
         ks = [f"k{j}_{i}" for j in range(N_STAGES + 1)]
         L += [f"{ind}sc = atol + rtol * max(abs(z{i}), abs(n{i}))",
@@ -154,7 +193,11 @@ def _trial(pb: Problem, ind: str) -> list[str]:
 
 
 def _dense(pb: Problem, ind: str) -> list[str]:
-    """The continuous extension's coefficients f (hand_dop853.dense)."""
+    """The continuous extension's coefficients f (hand_dop853.dense; DOPRI5: hgo's
+    f_q = hh sum_j P[j, q] k_j, no extra evaluation)."""
+    if pb.method is DOPRI5:
+        return [f"{ind}f{q}_{i} = hh * ({_combo(RK45.P[:, q], [f'k{j}_{i}' for j in range(7)])})"
+                for i in range(pb.nz) for q in range(4)]
     L = [line for s in range(N_STAGES + 1, N_EXT) for line in _stage(pb, s, "t", "hh", ind)]
     for i in range(pb.nz):
         ks = [f"k{j}_{i}" for j in range(N_EXT)]
@@ -179,6 +222,7 @@ def source(pb: Problem) -> str:
     nz, z = pb.nz, _names("z", pb.nz)
     i1, i2, i3, i4 = (" " * (4 * n) for n in range(1, 5))
     k0 = ", ".join(_names("k0_", nz))
+    exp = repr(-1.0 / pb.method.order)
     L = ["def run(z, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, rec, window, metrics):",
          f"{i1}{', '.join(z)} = {', '.join(f'z[{i}]' for i in range(nz))}",
          f"{i1}n_out = int(round(t_end / dt_out)) + 1", f"{i1}tol = 1e-12 * max(1.0, t_end)",
@@ -188,7 +232,8 @@ def source(pb: Problem) -> str:
          *[i1 + line for line in pb.start], *_record(pb, "0", "0.0", "z", i1),
          f"{i1}if t_win0 <= tol:", *_window_point(pb, "z", i2),
          f"{i1}k_out = 1", f"{i1}{k0} = {pb.rhs('t', ', '.join(z))}", *_initial_step(pb, i1)]
-    L += [f"{i1}f{c}_{i} = 0.0" for c in range(N_F) for i in range(nz)]
+    me = pb.method
+    L += [f"{i1}f{c}_{i} = 0.0" for c in range(me.n_f) for i in range(nz)]
     L += [f"{i1}retried = False", f"{i1}fsal = True", f"{i1}accepted = 0", f"{i1}rejected = 0",
           f"{i1}while True:  # segments between noise instants",
           f"{i2}t_seg = (k_noise + 1) * noise_dt",
@@ -199,7 +244,7 @@ def source(pb: Problem) -> str:
           f"{i3}if last:", f"{i4}hh = t_seg - t",
           f"{i3}if not hh >= 1e-14 * max(1.0, abs(t)):", f"{i4}return accepted, -1",
           *_trial(pb, i3), f"{i3}if not err <= 1.0:",
-          f"{i4}h = hh * (0.2 if not math.isfinite(err) else max(0.2, 0.9 * err ** -0.125))",
+          f"{i4}h = hh * (0.2 if not math.isfinite(err) else max(0.2, 0.9 * err ** {exp}))",
           f"{i4}retried = True", f"{i4}rejected += 1", f"{i4}continue",
           f"{i3}accepted += 1", f"{i3}t_new = t_seg if last else t + hh",
           f"{i3}if t_new > t_win0 + tol or (k_out < n_out and k_out * dt_out < t_new - tol):",
@@ -209,9 +254,9 @@ def source(pb: Problem) -> str:
           *_extension(pb, "x_", "o", i4), *_record(pb, "k_out", "t_o", "o", i4),
           f"{i4}k_out += 1",
           f"{i3}{', '.join(z)} = {', '.join(_names('n', nz))}",
-          f"{i3}{k0} = {', '.join(_names(f'k{N_STAGES}_', nz))}", f"{i3}t = t_new",
+          f"{i3}{k0} = {', '.join(_names(f'k{me.n_stages}_', nz))}", f"{i3}t = t_new",
           *pb.update(i3), f"{i3}if t >= t_win0 - tol:", *_window_point(pb, "z", i4),
-          f"{i3}fac = 10.0 if err == 0.0 else min(10.0, max(0.2, 0.9 * err ** -0.125))",
+          f"{i3}fac = 10.0 if err == 0.0 else min(10.0, max(0.2, 0.9 * err ** {exp}))",
           f"{i3}if retried:", f"{i4}fac = min(1.0, fac)", f"{i4}retried = False",
           f"{i3}h = max(h, hh * fac) if last else hh * fac",
           f"{i3}if last:", f"{i4}break",
@@ -307,6 +352,17 @@ def apa_problem(name: str) -> Problem:
                                           "e2_", t]),
         lambda src: [estimate(src), f"sq0 = (e1_ - {src}0) ** 2", f"sq1 = (e2_ - {src}1) ** 2",
                      f"sq2 = (e1_ - ({src}0 + m)) ** 2"])
+
+
+# ---------------------------------------------------------------------- B
+def b_problem(p2: float) -> Problem:
+    """Problem B (``problems.b_system``: plant and observer, 5 states), DOPRI5, p2 literal."""
+    return Problem(
+        "b", 5, "import math\n\nfrom baselines import b_f\n",
+        lambda t, states: f"b_f({p2!r}, m, {states})",
+        lambda t, src: ([], [f"{src}0 + m", "m", f"{src}2", f"{src}3", t]),
+        lambda src: [f"sq0 = ({src}2 - {src}0) ** 2", f"sq1 = ({src}3 - {src}1) ** 2",
+                     f"sq2 = ({src}2 - ({src}0 + m)) ** 2"], method=DOPRI5)
 
 
 dhlm_unrolled = compile_kernel(DHLM)
