@@ -341,104 +341,86 @@ A_REC = 5 + A_ND + 2 + 2 + 1 + 2 + 1  # a record row: z, d, y (x1 + v, x3), m, u
 
 
 @numba.njit(inline="always")
-def _a_f(t, s, h1, h2, v, out):
-    """Plant (38) and observer (26) with the injection gains h1 = a1 / eps, h2 = a2 / eps^2."""
+def _a_f(t, x1, x2, x3, z1, z2, h1, h2, v):
+    """Plant (38) and observer (26) with the injection gains h1 = a1 / eps, h2 = a2 / eps^2;
+    scalars in, the derivative as a tuple out."""
     u = 1.0 + 0.5 * math.sin(t)
-    e = s[0] + v - s[3]
-    phi0 = -0.11 * min(max(s[4], -A_SAT), A_SAT) + 0.1 * s[2] * u
-    out[0] = s[1]
-    out[1] = -A_A * s[1] + A_B * s[2] * u
-    out[2] = -A_C * s[2] - A_D * s[1] * u + A_E
-    out[3] = s[4] + h1 * e
-    out[4] = phi0 + h2 * e
+    e = x1 + v - z1
+    phi0 = -0.11 * min(max(z2, -A_SAT), A_SAT) + 0.1 * x3 * u
+    return (x2, -A_A * x2 + A_B * x3 * u, -A_C * x3 - A_D * x2 * u + A_E, z2 + h1 * e,
+            phi0 + h2 * e)
 
 
 @numba.njit(inline="always")
-def _a_update(t, s, v, d, t_d):
-    """The switching scheme (Ahrens & Khalil Section 3.1, hgo's ``switched_hgo.update``) after
-    a step ending at t: d = [gain, eps, t_enter, timer, n_switches, t_switch]."""
-    if abs(s[0] + v - s[3]) > A_DELTA:  # outside the zone: H1, timer reset
-        d[2] = -1.0
-        d[3] = 0.0
-        if d[0] > 1.5:
-            d[0] = 1.0
-            d[4] += 1.0
-            d[5] = t
+def _a_update(t, e, d, t_d):
+    """The switching scheme (Ahrens & Khalil Section 3.1, hgo's ``switched_hgo.update``) on
+    the output error e = y - x^1 after a step ending at t: the new d = (gain, eps, t_enter,
+    timer, n_switches, t_switch)."""
+    gain, _, t_enter, timer, n_sw, t_sw = d
+    if abs(e) > A_DELTA:  # outside the zone: H1, timer reset
+        t_enter = -1.0
+        timer = 0.0
+        if gain > 1.5:
+            gain, n_sw, t_sw = 1.0, n_sw + 1.0, t
     else:
-        if d[2] < 0.0:
-            d[2] = t
-        d[3] = t - d[2]
-        if d[0] < 1.5 and d[3] >= t_d - 1e-12 * max(1.0, t):  # T_d in the zone: H2
-            d[0] = 2.0
-            d[4] += 1.0
-            d[5] = t
-    d[1] = 5e-4 if d[0] < 1.5 else 0.01
+        if t_enter < 0.0:
+            t_enter = t
+        timer = t - t_enter
+        if gain < 1.5 and timer >= t_d - 1e-12 * max(1.0, t):  # T_d in the zone: H2
+            gain, n_sw, t_sw = 2.0, n_sw + 1.0, t
+    return gain, 5e-4 if gain < 1.5 else 0.01, t_enter, timer, n_sw, t_sw
 
 
 @numba.njit(inline="always")
-def _a_point(s, v, acc, prev, dt):
+def _a_point(x1, x2, z1, z2, v, acc, prev, dt):
     """A step end of the window metrics (hgo's RK4 ``_step_end``): the squared errors of the
     estimate x^ = (x^1, sat(x^2)), (x^1 - x1)^2, (x^2 - x2)^2, (y^ - y)^2 with y = x1 + v,
-    their trapezoid from the previous step end (``dt`` after it; none at the window's first
-    point, dt < 0), ||x^ - x|| into the running maximum."""
-    q0 = (s[3] - s[0]) ** 2
-    q1 = (min(max(s[4], -A_SAT), A_SAT) - s[1]) ** 2
-    q2 = (s[3] - (s[0] + v)) ** 2
+    their trapezoid from the previous step end's ``prev`` (``dt`` after it; none at the
+    window's first point, dt < 0), ||x^ - x|| into the running maximum. Returns the
+    squared errors (the next point's ``prev``)."""
+    q0 = (z1 - x1) ** 2
+    q1 = (min(max(z2, -A_SAT), A_SAT) - x2) ** 2
+    q2 = (z1 - (x1 + v)) ** 2
     if dt >= 0.0:
         acc[0] += 0.5 * dt * (q0 + prev[0])
         acc[1] += 0.5 * dt * (q1 + prev[1])
         acc[2] += 0.5 * dt * (q2 + prev[2])
         acc[4] += dt
-    prev[0], prev[1], prev[2] = q0, q1, q2
     acc[3] = max(acc[3], math.sqrt(q0 + q1))
+    return q0, q1, q2
 
 
 @numba.njit(inline="always")
-def _a_emit(rec, j, t, s, d, v):
+def _a_emit(rec, j, t, x1, x2, x3, z1, z2, d, v):
     """Output j at t: hgo's Trajectory row z, d, y = (x1 + v, x3), m = (v, 0), u,
     x^ = (x^1, sat(x^2)), t (``A_REC`` columns)."""
-    for i in range(5):
-        rec[j, i] = s[i]
-    for i in range(A_ND):
-        rec[j, 5 + i] = d[i]
-    o = 5 + A_ND
-    rec[j, o] = s[0] + v
-    rec[j, o + 1] = s[2]
-    rec[j, o + 2] = v
-    rec[j, o + 3] = 0.0
-    rec[j, o + 4] = 1.0 + 0.5 * math.sin(t)
-    rec[j, o + 5] = s[3]
-    rec[j, o + 6] = min(max(s[4], -A_SAT), A_SAT)
-    rec[j, o + 7] = t
+    row = (x1, x2, x3, z1, z2, *d, x1 + v, x3, v, 0.0, 1.0 + 0.5 * math.sin(t), z1,
+           min(max(z2, -A_SAT), A_SAT), t)
+    for i in range(A_REC):
+        rec[j, i] = row[i]
 
 
 @numba.njit(cache=True, error_model="numpy")
 def a_kernel(s0, noise, noise_dt, t_end, t_d, stab, out_every, rec, t_window, acc):
-    """Hand-written RK4 for problem A: substeps aligned to the noise samples, their number
-    from the stability margin of the active gain (rho = 1.4e5 then 100), the switching
-    scheme after every substep (``_a_update``, delay timer ``t_d``). ``rec`` receives what
-    hgo's call records (``_a_emit``: z, d, y, m, u, x^, t) every ``out_every`` noise samples.
-    The window metrics of hgo's run into ``acc`` = [int (x^1 - x1)^2, int (x^2 - x2)^2,
-    int (y^ - y)^2, max ||x^ - x||, window length]: the trapezoid on the step ends in the
-    trailing ``t_window`` (its start a noise instant here: a step end; 0: none). Returns the
-    number of RK4 steps."""
+    """Hand-written RK4 for problem A (the state and stages as scalar locals): substeps
+    aligned to the noise samples, their number from the stability margin of the active gain
+    (rho = 1.4e5 then 100), the switching scheme after every substep (``_a_update``, delay
+    timer ``t_d``). ``rec`` receives what hgo's call records (``_a_emit``: z, d, y, m, u, x^,
+    t) every ``out_every`` noise samples. The window metrics of hgo's run into ``acc`` =
+    [int (x^1 - x1)^2, int (x^2 - x2)^2, int (y^ - y)^2, max ||x^ - x||, window length]: the
+    trapezoid on the step ends in the trailing ``t_window`` (its start a noise instant here:
+    a step end; 0: none). Returns the number of RK4 steps."""
     n = int(round(t_end / noise_dt))
     dt_out = out_every * noise_dt
-    s = s0.copy()
-    k1 = np.zeros(5)
-    k2 = np.zeros(5)
-    k3 = np.zeros(5)
-    k4 = np.zeros(5)
-    st = np.zeros(5)
-    prev = np.zeros(3)
-    d = np.array([1.0, 5e-4, -1.0, 0.0, 0.0, -1.0])
+    x1, x2, x3, z1, z2 = s0[0], s0[1], s0[2], s0[3], s0[4]
+    prev = (0.0, 0.0, 0.0)
     acc[:] = 0.0
     t_win0 = t_end - t_window if t_window > 0.0 else math.inf
     tol = 1e-12 * max(1.0, t_end)
     t_last = -1.0  # the previous step end in the window (none yet)
     n_steps = 0
-    _a_update(0.0, s, noise[0], d, t_d)
-    _a_emit(rec, 0, 0.0, s, d, noise[0])
+    d = _a_update(0.0, x1 + noise[0] - z1, (1.0, 5e-4, -1.0, 0.0, 0.0, -1.0), t_d)
+    _a_emit(rec, 0, 0.0, x1, x2, x3, z1, z2, d, noise[0])
     for k in range(n):
         t = k * noise_dt
         if d[0] < 1.5:
@@ -449,29 +431,34 @@ def a_kernel(s0, noise, noise_dt, t_end, t_d, stab, out_every, rec, t_window, ac
         h = noise_dt / n_sub
         v = noise[k]
         if k == 0 and t_win0 <= tol:
-            _a_point(s, v, acc, prev, -1.0)
+            prev = _a_point(x1, x2, z1, z2, v, acc, prev, -1.0)
             t_last = 0.0
         for j in range(n_sub):
             tj = t + j * h
-            _a_f(tj, s, h1, h2, v, k1)
-            for i in range(5):
-                st[i] = s[i] + 0.5 * h * k1[i]
-            _a_f(tj + 0.5 * h, st, h1, h2, v, k2)
-            for i in range(5):
-                st[i] = s[i] + 0.5 * h * k2[i]
-            _a_f(tj + 0.5 * h, st, h1, h2, v, k3)
-            for i in range(5):
-                st[i] = s[i] + h * k3[i]
-            _a_f(tj + h, st, h1, h2, v, k4)
-            for i in range(5):
-                s[i] += h / 6.0 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
+            a1, a2, a3, a4, a5 = _a_f(tj, x1, x2, x3, z1, z2, h1, h2, v)
+            b1, b2, b3, b4, b5 = _a_f(tj + 0.5 * h, x1 + 0.5 * h * a1, x2 + 0.5 * h * a2,
+                                      x3 + 0.5 * h * a3, z1 + 0.5 * h * a4, z2 + 0.5 * h * a5,
+                                      h1, h2, v)
+            c1, c2, c3, c4, c5 = _a_f(tj + 0.5 * h, x1 + 0.5 * h * b1, x2 + 0.5 * h * b2,
+                                      x3 + 0.5 * h * b3, z1 + 0.5 * h * b4, z2 + 0.5 * h * b5,
+                                      h1, h2, v)
+            e1, e2, e3, e4, e5 = _a_f(tj + h, x1 + h * c1, x2 + h * c2, x3 + h * c3,
+                                      z1 + h * c4, z2 + h * c5, h1, h2, v)
+            h6 = h / 6.0
+            x1 += h6 * (a1 + 2.0 * (b1 + c1) + e1)
+            x2 += h6 * (a2 + 2.0 * (b2 + c2) + e2)
+            x3 += h6 * (a3 + 2.0 * (b3 + c3) + e3)
+            z1 += h6 * (a4 + 2.0 * (b4 + c4) + e4)
+            z2 += h6 * (a5 + 2.0 * (b5 + c5) + e5)
             t_end_j = (k + 1) * noise_dt if j == n_sub - 1 else tj + h
-            _a_update(t_end_j, s, v, d, t_d)
+            d = _a_update(t_end_j, x1 + v - z1, d, t_d)
             if t_end_j >= t_win0 - tol:
-                _a_point(s, v, acc, prev, t_end_j - t_last if t_last >= 0.0 else -1.0)
+                prev = _a_point(x1, x2, z1, z2, v, acc, prev,
+                                t_end_j - t_last if t_last >= 0.0 else -1.0)
                 t_last = t_end_j
         n_steps += n_sub
         if (k + 1) % out_every == 0:
             j_out = (k + 1) // out_every
-            _a_emit(rec, j_out, j_out * dt_out, s, d, noise[min(k + 1, noise.shape[0] - 1)])
+            _a_emit(rec, j_out, j_out * dt_out, x1, x2, x3, z1, z2, d,
+                    noise[min(k + 1, noise.shape[0] - 1)])
     return n_steps
