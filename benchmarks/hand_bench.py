@@ -31,8 +31,9 @@ process (all its threads), medians of interleaved calls (``REPS``).
 The adaptive kernels (B, APA, DHLM, Moreno) are ``hand_unrolled``'s (issue 41): DOPRI5 or
 DOP853 written out stage by stage with scalar locals and the problem's right-hand side
 inlined, hgo's fast-math flags; on DHLM 1.4-1.55x faster than ``hand_dop853``'s
-loop-over-arrays kernel (``hand_papers.dhlm_kernel``), the yardstick of DHLM before
-2026-12-01 and of APA and Moreno until 2026-12-01 evening.
+loop-over-arrays kernel (``dop853_kernel`` of ``dhlm_f``: ``hand_papers.dhlm_kernel``
+until 07cc137), the yardstick of DHLM before 2026-12-01 and of APA and Moreno until
+2026-12-01 evening.
 
 Then the build time per ensemble member of a 10,000-member grid (``sp_ensemble`` with a
 100 x 100 grid over p2 and x^1(0): ``hgo.ensemble_runner.prepare_ensemble``, i.e. planning,
@@ -79,7 +80,6 @@ from hand_papers import (  # noqa: E402
     DHLM_Z0,
     MORENO_Z0,
     apa_start,
-    dhlm_kernel,
     moreno_kernel,
     moreno_kernel_signals,
 )
@@ -273,17 +273,20 @@ COARSE_DT = 0.04  # --outputs: the coarse output grid (s) against the presets' 1
 
 def outputs_split(reps: int = REPS) -> None:
     """``--outputs``: DHLM's and Moreno's calls with outputs every 1 ms (the presets) and every
-    ``COARSE_DT``: what the extra outputs cost hgo and the hand kernel, and the ratio left
-    at the coarse grid (the steps)."""
+    ``COARSE_DT``: what the extra outputs cost hgo and the hand kernel (the ratio line's:
+    ``hand_unrolled``'s, recording what hgo's call records), and the ratio left at the
+    coarse grid (the steps)."""
     print(f"\n## DHLM and Moreno: outputs against steps (CPU ms, medians of {reps} interleaved "
           f"calls; load average {os.getloadavg()[0]:.2f})\n")
     print(f"| problem | hgo 1 ms / {COARSE_DT * 1e3:g} ms | hand 1 ms / {COARSE_DT * 1e3:g} ms "
           "| cost of the extra outputs: hgo / hand | hgo / hand at the coarse grid |")
     print("|---|---|---|---|---|")
-    for name, overrides, kernel, z0 in (("DHLM", DHLM, dhlm_kernel, DHLM_Z0),
-                                        ("Moreno", MORENO, moreno_kernel, MORENO_Z0)):
-        fine = case_paper(overrides, kernel, z0)
-        coarse = case_paper([*overrides, f"solver.dt_out={COARSE_DT}"], kernel, z0)
+    nz = DHLM_Z0.size
+    for name, overrides, args in (
+            ("DHLM", DHLM, (dhlm_unrolled, DHLM_Z0, N_REC, [*range(nz), *range(nz + 2, N_REC)])),
+            ("Moreno", MORENO, (moreno_unrolled, MORENO_Z0, MORENO_REC))):
+        fine = case_signals(overrides, *args)
+        coarse = case_signals([*overrides, f"solver.dt_out={COARSE_DT}"], *args)
         (g1, _), (h1, _), (g2, _), (h2, _) = interleaved_median_cpu(
             [fine[0], fine[1], coarse[0], coarse[1]], reps)
         ms = [1e3 * t for t in (g1, g2, h1, h2)]

@@ -15,7 +15,10 @@ t = 0: scipy's DOP853 coefficients, Hairer's starting step, scipy's step-size co
 (factor 0.9 err^(-1/8) in [0.2, 10], no growth right after a rejection), steps capped at
 ``h_max`` and cut at the noise instants and at ``t_end``, outputs from the 7th-order
 continuous extension (3 more evaluations, only in steps that hold an output or overlap
-the window). So it takes hgo's steps, up to round-off.
+the window). So it takes hgo's steps, up to round-off. Compiled with hgo's kernel flags
+(fastmath contract, arcp; LLVM ``noalias`` on the array arguments). The ratio line's
+yardsticks are ``hand_unrolled``'s (the same method written out stage by stage, ~1.4x
+faster); these loop kernels serve ``hand_bench --outputs`` and ``--signals``.
 
 The window metrics hgo's run computes, as hgo computes them (``kernel_template``'s
 ``_window_step``): ``errors(t, z, p, m, sq)`` writes the squared errors (x^_j - x_j)^2 of the

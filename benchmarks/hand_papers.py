@@ -2,9 +2,9 @@
 
 Each right-hand side is written out for its one problem (constants compiled in, states as
 scalars, the derivative a tuple: ``dhlm_f``, ``moreno_f``, ``apa_f``), integrated by the
-unrolled DOP853 of :mod:`hand_unrolled` (the ratio line's yardsticks) and, for DHLM and
-Moreno, by the loop-over-arrays DOP853 of :mod:`hand_dop853` (``dhlm_kernel``,
-``moreno_kernel``: ``hand_bench --outputs``, ``--signals``), hgo's method at the presets'
+unrolled DOP853 of :mod:`hand_unrolled` (the ratio line's yardsticks) and, for Moreno, by
+the loop-over-arrays DOP853 of :mod:`hand_dop853` (``moreno_kernel``,
+``moreno_kernel_signals``: ``hand_bench --signals``), hgo's method at the presets'
 settings:
 
 * DHLM: ``experiment=dhlm_example`` (Dimassi et al. Sec. IV): robot arm (24)-(25) under
@@ -65,13 +65,6 @@ def dhlm_f(t, x1, x2, zh1, zh2, xh1, xh2, th1, th2, om):
             0.0)
 
 
-@numba.njit(inline="always")
-def dhlm_rhs(t, w, p, m, dw):
-    """:func:`dhlm_f` on the arrays of ``hand_dop853``."""
-    (dw[0], dw[1], dw[2], dw[3], dw[4], dw[5], dw[6], dw[7], dw[8]) = dhlm_f(
-        t, w[0], w[1], w[2], w[3], w[4], w[5], w[6], w[7], w[8])
-
-
 # Moreno Section 5 with the `sin` profile (conf/controller/moreno_sin.yaml)
 MORENO_A, MORENO_AMP = 0.5, 2.0
 MORENO_L1, MORENO_L2, MORENO_N = 200.0, 120.0, 2.0
@@ -103,14 +96,6 @@ def moreno_rhs(t, w, p, m, dw):
 
 
 @numba.njit(inline="always")
-def dhlm_errors(t, w, p, m, sq):
-    """hgo's window errors: x^ of (5) against x, and y^ = x^1 against y = x1 (no noise)."""
-    sq[0] = (w[4] - w[0]) ** 2
-    sq[1] = (w[5] - w[1]) ** 2
-    sq[2] = (w[4] - w[0]) ** 2
-
-
-@numba.njit(inline="always")
 def moreno_errors(t, w, p, m, sq):
     """hgo's window errors: x^ against x, and y^ = x^1 against y = x1."""
     sq[0] = (w[2] - w[0]) ** 2
@@ -130,7 +115,6 @@ def moreno_signals(t, rec, k, p, m):
     rec[k, 9] = rec[k, 3]
 
 
-dhlm_kernel = dop853_kernel(dhlm_rhs, 9, dhlm_errors, 2)
 moreno_kernel = dop853_kernel(moreno_rhs, 4, moreno_errors, 2)
 # the same run recording hgo's other signals too (rec with 10 columns: moreno_signals)
 moreno_kernel_signals = dop853_kernel(moreno_rhs, 4, moreno_errors, 2, moreno_signals)
