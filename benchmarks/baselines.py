@@ -409,7 +409,9 @@ def a_kernel(s0, noise, noise_dt, t_end, t_d, stab, out_every, rec, t_window, ac
     t) every ``out_every`` noise samples. The window metrics of hgo's run into ``acc`` =
     [int (x^1 - x1)^2, int (x^2 - x2)^2, int (y^ - y)^2, max ||x^ - x||, window length]: the
     trapezoid on the step ends in the trailing ``t_window`` (its start a noise instant here:
-    a step end; 0: none). Returns the number of RK4 steps."""
+    a step end; 0: none). Returns the number of RK4 steps. A segment's substeps are planned
+    with the gain at its start (hgo re-plans after a switch inside a segment: here the switch
+    falls on a segment's end, t = T_d = 1 s, a noise instant)."""
     n = int(round(t_end / noise_dt))
     dt_out = out_every * noise_dt
     x1, x2, x3, z1, z2 = s0[0], s0[1], s0[2], s0[3], s0[4]
