@@ -56,9 +56,9 @@ extension (B, APA, DHLM, Moreno), by the trapezoid on the RK4 step ends (A). Bef
 2026-12-01 evening A's, B's and APA's recorded the state only, B integrated the 3-state
 error system from h0 = 1e-3, and APA computed no window metrics. The column "without its
 window metrics" times the same hand kernels with no window. What a hand kernel does not
-do that hgo's does: the state bound and finiteness checks after every step, the Ctrl-C
-flag, and (APA) the restart of the step size at the input's break points (t = 10, 20,
-35: three steps).
+do that hgo's does: the state bound and finiteness checks after every step and the Ctrl-C
+flag. (APA's input jumps at t = 10, 20, 35: its kernels end a step there, evaluate the
+stages just below the jump and restart the step size after it, as hgo.)
 """
 
 from __future__ import annotations
@@ -102,6 +102,7 @@ MORENO = ["experiment=moreno_pe", "postprocess=none", "controller=moreno_sin", "
           "observer.circle.L=[200.0,120.0]"]
 GRID_N = 100  # 100 x 100 members
 NO_NOISE = np.zeros(1)
+NO_BREAKS = np.zeros(0)
 B_P2 = 1.5  # problems.b_system's p2
 
 
@@ -152,8 +153,8 @@ def case_b() -> tuple:
     kernel, z0 = compile_kernel(b_problem(B_P2)), system.z0()
 
     def hand(window: float = solver.t_window):
-        return kernel(z0.copy(), NO_NOISE, np.inf, pb.B_T, pb.B_DT, solver.h_max, pb.RTOL_B,
-                      pb.ATOL_B, rec, window, acc)
+        return kernel(z0.copy(), NO_NOISE, np.inf, NO_BREAKS, pb.B_T, pb.B_DT, solver.h_max,
+                      pb.RTOL_B, pb.ATOL_B, rec, window, acc)
 
     def hgo():
         return pb.simulate(system, solver, pb.no_noise(1))
@@ -203,8 +204,8 @@ def case_signals(overrides: list[str], kernel, z0: np.ndarray, width: int,
     acc = np.zeros(exp.system.n_acc())
 
     def hand(window: float = s.t_window):
-        return kernel(z0.copy(), NO_NOISE, np.inf, s.t_end, s.dt_out, s.h_max, s.rtol, s.atol,
-                      rec, window, acc)
+        return kernel(z0.copy(), NO_NOISE, np.inf, NO_BREAKS, s.t_end, s.dt_out, s.h_max,
+                      s.rtol, s.atol, rec, window, acc)
 
     def hgo():
         return run_experiment(exp)
@@ -244,14 +245,15 @@ def case_apa() -> tuple:
     s = exp.solver
     noise = exp.noise.sample(s.t_end, 1, exp.seed)
     v = noise.samples[:, 0].copy()
+    breaks = exp.system.breaks(exp.system.params(), s.t_end)  # the input's jumps, hgo's
     runs = [(apa_unrolled(name), apa_start(name, v[0]),
              np.zeros((int(round(s.t_end / s.dt_out)) + 1, APA_REC)), np.zeros(5))
             for name in APA_OBSERVERS]
 
     def hand(window: float = s.t_window):
         for kernel, z0, rec, acc in runs:
-            kernel(z0.copy(), v, noise.dt, s.t_end, s.dt_out, s.h_max, s.rtol, s.atol, rec,
-                   window, acc)
+            kernel(z0.copy(), v, noise.dt, breaks, s.t_end, s.dt_out, s.h_max, s.rtol, s.atol,
+                   rec, window, acc)
 
     def hgo():
         return run_experiment(exp)

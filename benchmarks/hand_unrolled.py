@@ -10,9 +10,9 @@ scipy's DOP853 coefficients (no one types 82 stage coefficients by hand), one ke
 problem (:class:`Problem`: its right-hand side, record row, window errors and discrete
 update as text); the method is ``hand_dop853``'s, i.e. hgo's ``dop853``: Hairer's starting
 step, scipy's error norm and step control, h_max, steps cut at the noise instants
-(``noise_dt``; inf: none), outputs from the 7th-order continuous extension, the window
-metrics by 3-point Gauss-Legendre on each step's extension (and ||x^ - x|| at the nodes and
-the step ends).
+(``noise_dt``; inf: none) and the break points, outputs from the 7th-order continuous
+extension, the window metrics by 3-point Gauss-Legendre on each step's extension (and
+||x^ - x|| at the nodes and the step ends).
 
 Each computes and records what hgo's call records at every output, checked equal to hgo's
 (``hand_bench``): the state z, the discrete state d, y, m, u, x^ and t, in that order:
@@ -24,8 +24,11 @@ Each computes and records what hgo's call records at every output, checked equal
 * APA (``apa_unrolled(name)``, one observer's part of the split run): z (eta, x^1, x^2, L),
   d = 1 (L set at t = 0), y = eta1 + m, m, u, eta^ = F^{-1} of the saturated x^, t.
 
-The kernel: ``run(z, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, rec, window,
-metrics)`` -> (accepted, rejected; -1: step-size underflow); ``metrics`` (5) gets hgo's
+The kernel: ``run(z, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol, rec, window,
+metrics)`` -> (accepted, rejected; -1: step-size underflow); ``breaks``: the instants where
+the input jumps (APA's schedule; read only by problems with ``breaks``: a step ends there,
+its stages evaluated just below the jump, the step size restarted after it, as hgo's
+``kernel_template``); ``metrics`` (5) gets hgo's
 window metrics of the run (its ``acc``: the integrals of the squared errors of x^1, x^2 and
 y^, the largest ||x^ - x||, the window's length).
 """
@@ -92,6 +95,7 @@ class Problem:
     start: tuple[str, ...] = ()
     update: Callable[[str], list[str]] = lambda ind: []
     method: Method = DOP853
+    breaks: bool = False  # the input jumps at the instants ``breaks`` (see ``source``)
 
 
 N_SQ = 3  # every problem here: x^1, x^2 and y^ errors, metrics = integrals, max norm, length
@@ -107,13 +111,21 @@ def _combo(coefs, terms: list[str]) -> str:
     return " + ".join(parts) if parts else "0.0"
 
 
-def _stage(pb: Problem, s: int, t: str, h: str, ind: str) -> list[str]:
-    """Stage s: y = z + h sum_j A[s, j] k_j, then k_s = f(t + C[s] h, y)."""
+def _time(pb: Problem, t: str) -> str:
+    """A stage's time: at most ``t_lim`` (just below a break point ending the step, as hgo's
+    ``_left_limit``) where the problem has break points."""
+    return f"min({t}, t_lim)" if pb.breaks else t
+
+
+def _stage(pb: Problem, s: int, t: str, h: str, ind: str, clamp: bool = True) -> list[str]:
+    """Stage s: y = z + h sum_j A[s, j] k_j, then k_s = f(t + C[s] h, y) (the time clamped
+    below a break point if ``clamp``: the step's stages, not the extension's, as hgo's)."""
     A, C = pb.method.A, pb.method.C
+    ts = f"{t} + {float(C[s])!r} * {h}"
     lines = [f"{ind}y{i} = z{i} + {h} * "
              f"({_combo(A[s, :s], [f'k{j}_{i}' for j in range(s)])})" for i in range(pb.nz)]
     lines.append(f"{ind}{', '.join(_names(f'k{s}_', pb.nz))} = "
-                 f"{pb.rhs(f'{t} + {float(C[s])!r} * {h}', ', '.join(_names('y', pb.nz)))}")
+                 f"{pb.rhs(_time(pb, ts) if clamp else ts, ', '.join(_names('y', pb.nz)))}")
     return lines
 
 
@@ -157,7 +169,8 @@ def _initial_step(pb: Problem, ind: str) -> list[str]:
           f"{ind}h0 = 1e-6 if d0_ < 1e-5 or d1_ < 1e-5 else 0.01 * d0_ / d1_",
           f"{ind}h0 = min(h0, h_max)",
           *[f"{ind}y{i} = z{i} + h0 * k0_{i}" for i in range(nz)],
-          f"{ind}{', '.join(_names('k1_', nz))} = {pb.rhs('t + h0', ', '.join(_names('y', nz)))}",
+          f"{ind}{', '.join(_names('k1_', nz))} = "
+          f"{pb.rhs(_time(pb, 't + h0'), ', '.join(_names('y', nz)))}",
           f"{ind}d2_ = 0.0"]
     L += [f"{ind}d2_ += ((k1_{i} - k0_{i}) / (atol + rtol * abs(z{i}))) ** 2" for i in range(nz)]
     return L + [f"{ind}d2_ = math.sqrt(d2_ / {nz}) / h0", f"{ind}dm = max(d1_, d2_)",
@@ -174,7 +187,7 @@ def _trial(pb: Problem, ind: str) -> list[str]:
     L += [f"{ind}n{i} = z{i} + hh * ({_combo(me.B, [f'k{j}_{i}' for j in range(me.n_stages)])})"
           for i in range(nz)]
     L += [f"{ind}{', '.join(_names(f'k{me.n_stages}_', nz))} = "
-          f"{pb.rhs('t + hh', ', '.join(_names('n', nz)))}"]
+          f"{pb.rhs(_time(pb, 't + hh'), ', '.join(_names('n', nz)))}"]
     if me is DOPRI5:
         L += [f"{ind}err = 0.0"]
         for i in range(nz):
@@ -198,7 +211,8 @@ def _dense(pb: Problem, ind: str) -> list[str]:
     if pb.method is DOPRI5:
         return [f"{ind}f{q}_{i} = hh * ({_combo(RK45.P[:, q], [f'k{j}_{i}' for j in range(7)])})"
                 for i in range(pb.nz) for q in range(4)]
-    L = [line for s in range(N_STAGES + 1, N_EXT) for line in _stage(pb, s, "t", "hh", ind)]
+    L = [line for s in range(N_STAGES + 1, N_EXT)
+         for line in _stage(pb, s, "t", "hh", ind, clamp=False)]
     for i in range(pb.nz):
         ks = [f"k{j}_{i}" for j in range(N_EXT)]
         L += [f"{ind}dz = n{i} - z{i}", f"{ind}f0_{i} = dz", f"{ind}f1_{i} = hh * k0_{i} - dz",
@@ -217,13 +231,51 @@ def _window_step(pb: Problem, ind: str) -> list[str]:
     return L + [f"{ind}metrics[{N_SQ + 1}] += w_"]
 
 
+def _break_start(pb: Problem, ind: str) -> list[str]:
+    """The break points' state at t = 0 (those at or before 0 passed, as hgo's)."""
+    if not pb.breaks:
+        return []
+    return [f"{ind}t_lim = math.inf", f"{ind}restart = False", f"{ind}k_break = 0",
+            f"{ind}n_breaks = breaks.shape[0]",
+            f"{ind}while k_break < n_breaks and breaks[k_break] <= t + tol:",
+            f"{ind}    k_break += 1"]
+
+
+def _break_segment(pb: Problem, ind: str) -> list[str]:
+    """A break point (within tol of) before the next noise instant ends the segment at its
+    own value; the step's stages then stay just below it (hgo's ``_next_event``)."""
+    if not pb.breaks:
+        return []
+    return [f"{ind}t_lim = math.inf",
+            f"{ind}if k_break < n_breaks and breaks[k_break] <= t_seg + tol:",
+            f"{ind}    t_seg = breaks[k_break]",
+            f"{ind}    t_lim = t_seg - abs(t_seg) * 4.440892098500626e-16"]
+
+
+def _segment_end(pb: Problem, ind: str) -> list[str]:
+    """After a segment: the next noise sample holds; after a break point, the right-hand side
+    afresh and the step size chosen anew (hgo's restart)."""
+    noise = [f"{ind}    k_noise += 1", f"{ind}    m = noise[min(k_noise, n_noise - 1)]",
+             f"{ind}    fsal = False"]
+    if not pb.breaks:
+        return [f"{ind}if t_seg < t_end:  # the next noise sample holds from here on", *noise]
+    return [f"{ind}if t_seg < t_end:",
+            f"{ind}    if (k_noise + 1) * noise_dt <= t_seg + tol:  # the next noise sample",
+            *["    " + line for line in noise],
+            f"{ind}    if k_break < n_breaks and breaks[k_break] <= t_seg + tol:  # a jump",
+            f"{ind}        while k_break < n_breaks and breaks[k_break] <= t_seg + tol:",
+            f"{ind}            k_break += 1",
+            f"{ind}        fsal = False", f"{ind}        restart = True"]
+
+
 def source(pb: Problem) -> str:
     """The kernel's text."""
     nz, z = pb.nz, _names("z", pb.nz)
     i1, i2, i3, i4 = (" " * (4 * n) for n in range(1, 5))
     k0 = ", ".join(_names("k0_", nz))
     exp = repr(-1.0 / pb.method.order)
-    L = ["def run(z, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, rec, window, metrics):",
+    L = ["def run(z, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol, rec, window, "
+         "metrics):",
          f"{i1}{', '.join(z)} = {', '.join(f'z[{i}]' for i in range(nz))}",
          f"{i1}n_out = int(round(t_end / dt_out)) + 1", f"{i1}tol = 1e-12 * max(1.0, t_end)",
          f"{i1}t_win0 = t_end - window", f"{i1}for j in range({N_SQ + 2}):",
@@ -231,15 +283,19 @@ def source(pb: Problem) -> str:
          f"{i1}n_noise = noise.shape[0]", f"{i1}m = noise[0]",
          *[i1 + line for line in pb.start], *_record(pb, "0", "0.0", "z", i1),
          f"{i1}if t_win0 <= tol:", *_window_point(pb, "z", i2),
-         f"{i1}k_out = 1", f"{i1}{k0} = {pb.rhs('t', ', '.join(z))}", *_initial_step(pb, i1)]
+         f"{i1}k_out = 1", *_break_start(pb, i1), f"{i1}{k0} = {pb.rhs('t', ', '.join(z))}",
+         *_initial_step(pb, i1)]
     me = pb.method
     L += [f"{i1}f{c}_{i} = 0.0" for c in range(me.n_f) for i in range(nz)]
     L += [f"{i1}retried = False", f"{i1}fsal = True", f"{i1}accepted = 0", f"{i1}rejected = 0",
           f"{i1}while True:  # segments between noise instants",
-          f"{i2}t_seg = (k_noise + 1) * noise_dt",
+          f"{i2}t_seg = (k_noise + 1) * noise_dt", *_break_segment(pb, i2),
           f"{i2}if t_seg >= t_end - tol:", f"{i3}t_seg = t_end",
+          *([f"{i3}t_lim = math.inf"] if pb.breaks else []),
           f"{i2}while True:  # steps inside [t, t_seg]",
           f"{i3}if not fsal:", f"{i4}{k0} = {pb.rhs('t', ', '.join(z))}", f"{i4}fsal = True",
+          *([f"{i3}if restart:  # after a jump: Hairer's starting step, as hgo",
+             *_initial_step(pb, i4), f"{i4}restart = False"] if pb.breaks else []),
           f"{i3}hh = min(h, h_max)", f"{i3}last = t + hh >= t_seg - min(tol, 0.01 * hh)",
           f"{i3}if last:", f"{i4}hh = t_seg - t",
           f"{i3}if not hh >= 1e-14 * max(1.0, abs(t)):", f"{i4}return accepted, -1",
@@ -262,8 +318,7 @@ def source(pb: Problem) -> str:
           f"{i3}if last:", f"{i4}break",
           f"{i3}while k_out < n_out and k_out * dt_out <= t + tol:  # an output at the step end",
           *_record(pb, "k_out", "k_out * dt_out", "z", i4), f"{i4}k_out += 1",
-          f"{i2}if t_seg < t_end:  # the next noise sample holds from here on",
-          f"{i3}k_noise += 1", f"{i3}m = noise[min(k_noise, n_noise - 1)]", f"{i3}fsal = False",
+          *_segment_end(pb, i2),
           f"{i2}while k_out < n_out and k_out * dt_out <= t + tol:  # at the instant, after it",
           *_record(pb, "k_out", "k_out * dt_out", "z", i3), f"{i3}k_out += 1",
           f"{i2}if k_out >= n_out:", f"{i3}break",
@@ -351,7 +406,7 @@ def apa_problem(name: str) -> Problem:
         lambda t, src: ([estimate(src)], ["1.0", f"{src}0 + m", "m", f"apa_input({t})", "e1_",
                                           "e2_", t]),
         lambda src: [estimate(src), f"sq0 = (e1_ - {src}0) ** 2", f"sq1 = (e2_ - {src}1) ** 2",
-                     f"sq2 = (e1_ - ({src}0 + m)) ** 2"])
+                     f"sq2 = (e1_ - ({src}0 + m)) ** 2"], breaks=True)
 
 
 # ---------------------------------------------------------------------- B
