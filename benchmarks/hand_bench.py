@@ -15,21 +15,25 @@ process (all its threads), medians of interleaved calls (``REPS``).
 
 * A: switched DC motor (``problems.a_system``), RK4, against ``baselines.a_kernel``;
 * B: Sanfelice & Praly (20) (``problems.b_system``), DOPRI5 rtol 1e-8, against
-  ``baselines.b_kernel``;
+  ``hand_unrolled``'s DOPRI5 kernel of B (hgo's 5 states, plant and observer; 1.2x faster
+  than ``baselines.b_kernel``, the loop-over-arrays kernel that was the yardstick before);
 * APA: ``experiment=apa_fig2`` (T = 50, noise held 0.01, three observers integrated apart),
-  DOP853 rtol 1e-8, against ``hand_papers.apa_kernel`` (one per observer). The df2max
+  DOP853 rtol 1e-8, against ``hand_unrolled.apa_unrolled`` (one per observer). The df2max
   observer's x^2 crosses its saturation bounds ~2.3 times per noise sample; its steps
-  there depend on round-off, so its x^2 differs by up to ~1e-5 (the same arithmetic in
-  another order; before a624e71 hgo's own kernel differed as much between the process that
-  compiled it and one loading it from the cache); every other state to ~1e-8;
+  there depend on round-off, so its x^2 differs by up to ~1e-5 and its eta^2 (through the
+  saturation) by up to ~2e-4 (the same arithmetic in another order; hgo's own kernel moves
+  as much between builds: tests/test_preset_metrics); every other column to ~3e-7;
 * DHLM: ``experiment=dhlm_example``, DOP853 rtol 1e-10, against
-  ``hand_unrolled.dhlm_unrolled`` (issue 41: DOP853 written out stage by stage with scalar
-  locals and the right-hand side inlined, hgo's fast-math flags; 1.55x faster than
-  ``hand_papers.dhlm_kernel``, the loop-over-arrays kernel that was the yardstick before),
-  recording z, d, y, m, u, x^ and t as hgo's call does;
+  ``hand_unrolled.dhlm_unrolled``;
 * Moreno: ``experiment=moreno_pe`` (x2 = 2 sin t, a = 0.5, l2 = 120), DOP853 rtol 1e-10,
-  against ``hand_papers.moreno_kernel_signals`` (recording t, y, m, u, x^ besides the state,
-  as hgo's call does; issue 41: before, the state-only ``moreno_kernel``).
+  against ``hand_unrolled.moreno_unrolled``.
+
+The adaptive kernels (B, APA, DHLM, Moreno) are ``hand_unrolled``'s (issue 41): DOPRI5 or
+DOP853 written out stage by stage with scalar locals and the problem's right-hand side
+inlined, hgo's fast-math flags; on DHLM 1.4-1.55x faster than ``hand_dop853``'s
+loop-over-arrays kernel (``dop853_kernel`` of ``dhlm_f``: ``hand_papers.dhlm_kernel``
+until 07cc137), the yardstick of DHLM before 2026-12-01 and of APA and Moreno until
+2026-12-01 evening.
 
 Then the build time per ensemble member of a 10,000-member grid (``sp_ensemble`` with a
 100 x 100 grid over p2 and x^1(0): ``hgo.ensemble_runner.prepare_ensemble``, i.e. planning,
@@ -41,17 +45,20 @@ kept), and a new composition's compile of ``sp_fig1`` and ``dhlm_example``
 cached; issue 41's target <= 0.6 s). The last line:
 ``hgo_over_hand: A=<x> B=<x> APA=<x> DHLM=<x> Moreno=<x>``.
 
-The hand kernels compute what hgo's call computes besides the recorded trajectory: also
-the window metrics hgo's run reports, as hgo computes them, checked against hgo's (the
-difference column: the largest of the trajectory's and the metrics' differences): DHLM's
-and Moreno's (``hand_dop853``) and B's by 3-point Gauss-Legendre on each step's continuous
-extension, A's by the trapezoid on its RK4 step ends (B's and A's since the afternoon of
-2026-11-28: before, B's hand kernel integrated a trapezoid on the output grid, a metric hgo
-no longer computes, and A's none). The column "without its window metrics" times the same
-hand kernels with no window (the earlier yardstick). The APA kernels compute no window
-metrics. DHLM's and Moreno's hand kernels record what hgo's call records (the state and
-t, y, m, u, x^; DHLM's also d); A's, B's and APA's the state only, while hgo also records
-y, u and x^ (``--signals``: Moreno's state-only kernel against the one recording them).
+Every hand kernel computes and records what hgo's call computes and records (issue 41,
+item 4), checked against it (the difference column: the largest over the record's columns
+and the window metrics, relative to max(1, max |column|)): at each output the state z,
+the discrete state d, y, m, u, x^ and t (A: d of the switched HGO, its switching scheme
+run after every substep; B: no d, no u; APA: d = L set; DHLM's d, two step-end times,
+left out of the difference: they move with the steps' round-off), and hgo's window
+metrics as hgo computes them: by 3-point Gauss-Legendre on each step's continuous
+extension (B, APA, DHLM, Moreno), by the trapezoid on the RK4 step ends (A). Before
+2026-12-01 evening A's, B's and APA's recorded the state only, B integrated the 3-state
+error system from h0 = 1e-3, and APA computed no window metrics. The column "without its
+window metrics" times the same hand kernels with no window. What a hand kernel does not
+do that hgo's does: the state bound and finiteness checks after every step and the Ctrl-C
+flag. (APA's input jumps at t = 10, 20, 35: its kernels end a step there, evaluate the
+stages just below the jump and restart the step size after it, as hgo.)
 """
 
 from __future__ import annotations
@@ -72,12 +79,20 @@ from hand_papers import (  # noqa: E402
     APA_OBSERVERS,
     DHLM_Z0,
     MORENO_Z0,
-    apa_kernel,
-    dhlm_kernel,
+    apa_start,
     moreno_kernel,
     moreno_kernel_signals,
 )
-from hand_unrolled import N_REC, dhlm_unrolled  # noqa: E402
+from hand_unrolled import (  # noqa: E402
+    APA_REC,
+    MORENO_REC,
+    N_REC,
+    apa_unrolled,
+    b_problem,
+    compile_kernel,
+    dhlm_unrolled,
+    moreno_unrolled,
+)
 from timing import interleaved_median_cpu  # noqa: E402
 
 REPS = 21
@@ -87,7 +102,8 @@ MORENO = ["experiment=moreno_pe", "postprocess=none", "controller=moreno_sin", "
           "observer.circle.L=[200.0,120.0]"]
 GRID_N = 100  # 100 x 100 members
 NO_NOISE = np.zeros(1)
-NO_METRICS = np.zeros(2)  # the APA kernels: no window metrics
+NO_BREAKS = np.zeros(0)
+B_P2 = 1.5  # problems.b_system's p2
 
 
 def _rel_diff(a: np.ndarray, b: np.ndarray) -> float:
@@ -96,14 +112,20 @@ def _rel_diff(a: np.ndarray, b: np.ndarray) -> float:
     return float((np.abs(a - b) / scale).max())
 
 
+def _record(tr) -> np.ndarray:
+    """What hgo's call records, one row per output: z, d, y, m, u, x^, t (the hand kernels'
+    record layout; empty signals take no columns)."""
+    return np.column_stack([tr.z, tr.d, tr.y, tr.m, tr.u, tr.xh, tr.t])
+
+
 def case_a() -> tuple:
-    """(hgo call, hand call, difference of the trajectories and window metrics, hand call
-    without its window metrics) of problem A."""
+    """(hgo call, hand call, difference of the records and window metrics, hand call
+    without its window metrics) of problem A; the hand kernel records z, d, y, m, u, x^, t."""
     system, solver, noise = pb.a_system(), pb.a_solver(), pb.a_noise()
     s0 = np.concatenate([system.plant.x0, system.observers[0].z0])
     stab = solver.stability_safety * 2.785
     every = int(round(pb.A_DT_OUT / pb.A_NOISE_DT))
-    rec = np.zeros((int(round(pb.A_T / pb.A_DT_OUT)) + 1, 5))
+    rec = np.zeros((int(round(pb.A_T / pb.A_DT_OUT)) + 1, bl.A_REC))
     v = noise.samples[:, 0].copy()
 
     acc = np.zeros(system.n_acc())
@@ -117,27 +139,29 @@ def case_a() -> tuple:
 
     hand()
     tr = hgo()
-    diff = max(_rel_diff(rec, tr.z[:, :5]), _rel_diff(acc[None], tr.acc[None]))
+    diff = max(_rel_diff(rec, _record(tr)), _rel_diff(acc[None], tr.acc[None]))
     return hgo, hand, diff, lambda: hand(0.0)
 
 
 def case_b() -> tuple:
-    """(hgo call, hand call, difference of the trajectories and window metrics, hand call
-    without its window metrics) of problem B."""
+    """(hgo call, hand call, difference of the records and window metrics, hand call
+    without its window metrics) of problem B; the hand kernel (``hand_unrolled``'s DOPRI5)
+    integrates hgo's 5 states and records z, y, m, x^, t (B has no d, no u)."""
     system, solver = pb.b_system(), pb.b_solver()
-    rec = np.zeros((int(round(pb.B_T / pb.B_DT)) + 1, 3))
+    rec = np.zeros((int(round(pb.B_T / pb.B_DT)) + 1, bl.B_REC))
     acc = np.zeros(system.n_acc())
+    kernel, z0 = compile_kernel(b_problem(B_P2)), system.z0()
 
     def hand(window: float = solver.t_window):
-        return bl.b_kernel(3.0, 3.0, 1.5, pb.B_T, pb.B_DT, pb.RTOL_B, pb.ATOL_B, 1e-3,
-                           window, rec, acc)
+        return kernel(z0.copy(), NO_NOISE, np.inf, NO_BREAKS, pb.B_T, pb.B_DT, solver.h_max,
+                      pb.RTOL_B, pb.ATOL_B, rec, window, acc)
 
     def hgo():
         return pb.simulate(system, solver, pb.no_noise(1))
 
     hand()
     tr = hgo()
-    diff = max(_rel_diff(rec, pb.b_errors(tr)), _rel_diff(acc[None], tr.acc[None]))
+    diff = max(_rel_diff(rec, _record(tr)), _rel_diff(acc[None], tr.acc[None]))
     return hgo, hand, diff, lambda: hand(0.0)
 
 
@@ -165,12 +189,12 @@ def case_paper(overrides: list[str], kernel, z0: np.ndarray) -> tuple:
     return hgo, hand, diff, lambda: hand(0.0)
 
 
-def case_signals(overrides: list[str], kernel, z0: np.ndarray, width: int, ours,
+def case_signals(overrides: list[str], kernel, z0: np.ndarray, width: int,
                  compared: list[int] | None = None) -> tuple:
-    """(hgo call, hand call, difference, hand call without its window metrics) of a paper
-    run whose hand kernel records what hgo's call records: ``width`` columns a row
-    (``compared`` of them: all if None) against ``ours(trajectory)``, and hgo's window
-    metrics. ``kernel(z, t_end, dt_out, h_max, rtol, atol, rec, window, acc)``."""
+    """(hgo call, hand call, difference, hand call without its window metrics) of a noiseless
+    paper run whose ``hand_unrolled`` kernel records what hgo's call records: ``width``
+    columns a row (``compared`` of them: all if None) against :func:`_record`, and hgo's
+    window metrics."""
     from hgo.core.config import compose
     from hgo.running.runner import build, run_experiment
 
@@ -180,27 +204,23 @@ def case_signals(overrides: list[str], kernel, z0: np.ndarray, width: int, ours,
     acc = np.zeros(exp.system.n_acc())
 
     def hand(window: float = s.t_window):
-        return kernel(z0.copy(), s.t_end, s.dt_out, s.h_max, s.rtol, s.atol, rec, window, acc)
+        return kernel(z0.copy(), NO_NOISE, np.inf, NO_BREAKS, s.t_end, s.dt_out, s.h_max,
+                      s.rtol, s.atol, rec, window, acc)
 
     def hgo():
         return run_experiment(exp)
 
     hand()
     run = hgo()
-    mine = rec if compared is None else rec[:, compared]
-    diff = max(_rel_diff(mine, ours(run)), _rel_diff(acc[None], run.acc[None]))
+    mine, ours = (rec, _record(run)) if compared is None else (rec[:, compared],
+                                                               _record(run)[:, compared])
+    diff = max(_rel_diff(mine, ours), _rel_diff(acc[None], run.acc[None]))
     return hgo, hand, diff, lambda: hand(0.0)
 
 
-def _moreno_signals(z, t_end, dt_out, h_max, rtol, atol, rec, window, acc):
-    return moreno_kernel_signals(z, np.zeros(1), NO_NOISE, np.inf, t_end, dt_out, h_max, rtol,
-                                 atol, rec, window, acc)
-
-
 def case_moreno() -> tuple:
-    """Moreno against its hand kernel recording t, y, m, u, x^ too (``moreno_signals``)."""
-    return case_signals(MORENO, _moreno_signals, MORENO_Z0, 10, lambda r: np.column_stack(
-        [r.z, r.t, r.y, r.m, r.u, r.xh]))
+    """Moreno against ``hand_unrolled.moreno_unrolled`` (recording z, y, m, u, x^, t)."""
+    return case_signals(MORENO, moreno_unrolled, MORENO_Z0, MORENO_REC)
 
 
 def case_dhlm() -> tuple:
@@ -209,14 +229,15 @@ def case_dhlm() -> tuple:
     last step end with the HGO saturated): they move with the steps' round-off (t_sat_last
     by 2.7e-4 relative against hgo's, measured; every other column <= 3.1e-8)."""
     nz = DHLM_Z0.size
-    return case_signals(DHLM, dhlm_unrolled, DHLM_Z0, N_REC, lambda r: np.column_stack(
-        [r.z, r.y, r.m, r.u, r.xh, r.t]), [*range(nz), *range(nz + 2, N_REC)])
+    return case_signals(DHLM, dhlm_unrolled, DHLM_Z0, N_REC, [*range(nz), *range(nz + 2, N_REC)])
 
 
 def case_apa() -> tuple:
     """apa_fig2: hgo integrates the three observers apart (solver.split_observers), each
-    with its own copy of the plant; the hand kernels the same, one after the other. The
-    difference is the largest over the observers' states and the plant's copies."""
+    with its own copy of the plant; the hand kernels (``hand_unrolled.apa_unrolled``) the
+    same, one after the other, each recording its part of what hgo's call records (z, d, y,
+    m, u, x^, t) and computing its part of hgo's window metrics. The difference is the
+    largest over the parts."""
     from hgo.core.config import compose
     from hgo.running.runner import build, run_experiment
 
@@ -224,24 +245,29 @@ def case_apa() -> tuple:
     s = exp.solver
     noise = exp.noise.sample(s.t_end, 1, exp.seed)
     v = noise.samples[:, 0].copy()
-    runs = [(*apa_kernel(name), np.zeros((int(round(s.t_end / s.dt_out)) + 1, 5)))
+    breaks = exp.system.breaks(exp.system.params(), s.t_end)  # the input's jumps, hgo's
+    runs = [(apa_unrolled(name), apa_start(name, v[0]),
+             np.zeros((int(round(s.t_end / s.dt_out)) + 1, APA_REC)), np.zeros(5))
             for name in APA_OBSERVERS]
-    starts = [start(v[0]) for _, start, _ in runs]
-    p = np.zeros(1)
 
-    def hand():
-        for (kernel, _, rec), z0 in zip(runs, starts, strict=True):
-            kernel(z0.copy(), p, v, noise.dt, s.t_end, s.dt_out, s.h_max, s.rtol, s.atol, rec,
-                   0.0, NO_METRICS)
+    def hand(window: float = s.t_window):
+        for kernel, z0, rec, acc in runs:
+            kernel(z0.copy(), v, noise.dt, breaks, s.t_end, s.dt_out, s.h_max, s.rtol, s.atol,
+                   rec, window, acc)
 
     def hgo():
         return run_experiment(exp)
 
     hand()
-    z = hgo().z
-    diff = max(_rel_diff(rec, z[:, [0, 1, 2 + 3 * k, 3 + 3 * k, 4 + 3 * k]])
-               for k, (_, _, rec) in enumerate(runs))
-    return hgo, hand, diff
+    r = hgo()
+    n_xh, n_obs = r.xh.shape[1], len(runs)
+    diff = 0.0
+    for k, (_, _, rec, acc) in enumerate(runs):
+        ours = np.column_stack([r.z[:, [0, 1, 2 + 3 * k, 3 + 3 * k, 4 + 3 * k]], r.d[:, k],
+                                r.y, r.m, r.u, r.xh[:, 2 * k:2 * k + 2], r.t])
+        metrics = r.acc[[2 * k, 2 * k + 1, n_xh + k, n_xh + n_obs + k, n_xh + 2 * n_obs]]
+        diff = max(diff, _rel_diff(rec, ours), _rel_diff(acc[None], metrics[None]))
+    return hgo, hand, diff, lambda: hand(0.0)
 
 
 COARSE_DT = 0.04  # --outputs: the coarse output grid (s) against the presets' 1 ms
@@ -249,17 +275,20 @@ COARSE_DT = 0.04  # --outputs: the coarse output grid (s) against the presets' 1
 
 def outputs_split(reps: int = REPS) -> None:
     """``--outputs``: DHLM's and Moreno's calls with outputs every 1 ms (the presets) and every
-    ``COARSE_DT``: what the extra outputs cost hgo and the hand kernel, and the ratio left
-    at the coarse grid (the steps)."""
+    ``COARSE_DT``: what the extra outputs cost hgo and the hand kernel (the ratio line's:
+    ``hand_unrolled``'s, recording what hgo's call records), and the ratio left at the
+    coarse grid (the steps)."""
     print(f"\n## DHLM and Moreno: outputs against steps (CPU ms, medians of {reps} interleaved "
           f"calls; load average {os.getloadavg()[0]:.2f})\n")
     print(f"| problem | hgo 1 ms / {COARSE_DT * 1e3:g} ms | hand 1 ms / {COARSE_DT * 1e3:g} ms "
           "| cost of the extra outputs: hgo / hand | hgo / hand at the coarse grid |")
     print("|---|---|---|---|---|")
-    for name, overrides, kernel, z0 in (("DHLM", DHLM, dhlm_kernel, DHLM_Z0),
-                                        ("Moreno", MORENO, moreno_kernel, MORENO_Z0)):
-        fine = case_paper(overrides, kernel, z0)
-        coarse = case_paper([*overrides, f"solver.dt_out={COARSE_DT}"], kernel, z0)
+    nz = DHLM_Z0.size
+    for name, overrides, args in (
+            ("DHLM", DHLM, (dhlm_unrolled, DHLM_Z0, N_REC, [*range(nz), *range(nz + 2, N_REC)])),
+            ("Moreno", MORENO, (moreno_unrolled, MORENO_Z0, MORENO_REC))):
+        fine = case_signals(overrides, *args)
+        coarse = case_signals([*overrides, f"solver.dt_out={COARSE_DT}"], *args)
         (g1, _), (h1, _), (g2, _), (h2, _) = interleaved_median_cpu(
             [fine[0], fine[1], coarse[0], coarse[1]], reps)
         ms = [1e3 * t for t in (g1, g2, h1, h2)]
@@ -268,10 +297,11 @@ def outputs_split(reps: int = REPS) -> None:
 
 
 def signals_split(reps: int = REPS) -> None:
-    """``--signals``: Moreno's call against its hand kernel recording the state only (the
-    ratio line's yardstick) and against the same hand kernel also recording what hgo's call
-    records at each output (t, y, m, u, x^: ``hand_papers.moreno_signals``), checked equal
-    to hgo's."""
+    """``--signals``: Moreno's call against ``hand_dop853``'s loop-over-arrays hand kernel
+    recording the state only (the ratio line's yardstick before issue 41) and against the
+    same hand kernel also recording what hgo's call records at each output (t, y, m, u, x^:
+    ``hand_papers.moreno_signals``), checked equal to hgo's. (The ratio line's yardstick is
+    now ``hand_unrolled.moreno_unrolled``.)"""
     from hgo.core.config import compose
     from hgo.running.runner import build, run_experiment
 

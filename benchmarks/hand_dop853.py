@@ -15,7 +15,10 @@ t = 0: scipy's DOP853 coefficients, Hairer's starting step, scipy's step-size co
 (factor 0.9 err^(-1/8) in [0.2, 10], no growth right after a rejection), steps capped at
 ``h_max`` and cut at the noise instants and at ``t_end``, outputs from the 7th-order
 continuous extension (3 more evaluations, only in steps that hold an output or overlap
-the window). So it takes hgo's steps, up to round-off.
+the window). So it takes hgo's steps, up to round-off. Compiled with hgo's kernel flags
+(fastmath contract, arcp; LLVM ``noalias`` on the array arguments). The ratio line's
+yardsticks are ``hand_unrolled``'s (the same method written out stage by stage, ~1.4x
+faster); these loop kernels serve ``hand_bench --outputs`` and ``--signals``.
 
 The window metrics hgo's run computes, as hgo computes them (``kernel_template``'s
 ``_window_step``): ``errors(t, z, p, m, sq)`` writes the squared errors (x^_j - x_j)^2 of the
@@ -46,6 +49,22 @@ N_F = dop.INTERPOLATOR_POWER  # 7
 ERR_EXP = -1.0 / 8.0
 GAUSS_NODES = np.array([0.5 - 0.5 * math.sqrt(0.6), 0.5, 0.5 + 0.5 * math.sqrt(0.6)])
 GAUSS_WEIGHTS = np.array([5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0])
+FASTMATH = {"contract", "arcp"}  # hgo's kernel flags (hgo.engine.codegen.FASTMATH)
+
+
+def noalias(dispatcher):
+    """``dispatcher`` compiling with LLVM ``noalias`` on its array arguments, as hgo's kernels
+    (``hgo.engine.codegen``: numba has the flag but no decorator option; left off if this
+    numba lacks the hook). Sound here: no two arguments of a run overlap."""
+    compiler = getattr(dispatcher, "_compiler", None)
+    if hasattr(compiler, "_customize_flags"):
+        compiler._customize_flags = _with_noalias
+    return dispatcher
+
+
+def _with_noalias(flags):
+    flags.noalias = True
+    return flags
 
 
 @numba.njit(inline="always")
@@ -175,7 +194,8 @@ def dop853_kernel(rhs, nz: int, errors, n_est: int, signals=_state_only):
                 metrics[j] += (b - a) * GAUSS_WEIGHTS[q] * sq[j]
         metrics[n_sq + 1] += b - a
 
-    @numba.njit(error_model="numpy")
+    @noalias
+    @numba.njit(error_model="numpy", fastmath=FASTMATH)
     def run(z, p, noise, noise_dt, t_end, dt_out, h_max, rtol, atol, rec, window, metrics):
         K = np.zeros((N_EXT, nz))
         F = np.zeros((N_F, nz))
