@@ -12,7 +12,7 @@ import pytest
 from scipy.linalg import expm
 
 from hgo.core.components import Params, Plant
-from hgo.engine.codegen import kernel_source
+from hgo.engine.codegen import composition_source
 from hgo.engine.simulate import SolverSettings, no_noise, simulate, simulate_ensemble
 from hgo.engine.system import System
 from hgo.observers.triangular import triangular_hgo
@@ -68,7 +68,7 @@ def test_matrix_parameter_read_by_name_gives_the_exact_solution():
 def test_kernel_text_names_parameters_and_writes_constants_as_literals():
     """The generated record reads each value from P at a constant offset, by name, and
     holds the dimension as a literal and the function by its injected name."""
-    text, functions = kernel_source(System(linear_plant(phi=cube), [_observer()]))
+    text, functions = composition_source(System(linear_plant(phi=cube), [_observer()]))
     assert "A=view2(P, 0, 2, 2)," in text
     assert "g=view(P, 4, 6)," in text
     assert "n=2," in text
