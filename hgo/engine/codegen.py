@@ -1,13 +1,20 @@
-"""Compose a :class:`~hgo.engine.system.System` into one kernel module and compile it.
+"""Compile a :class:`~hgo.engine.system.System`: its integrator and its composition, apart.
 
-The generated module is the header written here (layout constants and the composed
-``system_rhs``/``system_update``/``system_outputs``) followed by the integrators of
-:mod:`hgo.engine.kernel_template`. It is written to a cache folder under a name that
-hashes its text and the source of every component function it calls, so numba's
+Two generated modules make a kernel (:class:`Kernel`):
+
+* the **integrator** (:mod:`hgo.engine.kernel_template` with the method's stages from
+  :mod:`hgo.engine.tableau`, after a header of the layout's sizes): the same text, so the
+  same numba cache entry, for every composition of one method and layout; compiled once;
+* the **composition** (:mod:`hgo.engine.composition`): the components' functions on their
+  slices of the flat vectors, compiled per experiment into five C entry points (numba
+  ``cfunc``) whose addresses the integrator gets as its argument ``S``.
+
+Each is written to a cache folder under a name that hashes its text (the composition's
+text also names every component function with a hash of its source files), so numba's
 on-disk cache (``cache=True``) is reused by later processes and never goes stale.
 
 If numba cannot compile a component (a user's plant written with Python objects, say),
-the same module is loaded with ``jit`` as the identity: a pure-Python path, slower, with
+the same modules are loaded with ``jit`` as the identity: a pure-Python path, slower, with
 one warning saying why.
 """
 
