@@ -378,8 +378,11 @@ class Kernel:
     ``integrate``, ``integrate_ensemble`` and ``dense_signals`` with the composition's
     entry points as their first argument ``S`` (:mod:`hgo.engine.kernel_template`)."""
 
-    def __init__(self, composition: ModuleType, integrator: ModuleType, compiled: bool):
+    def __init__(self, composition: ModuleType, integrator: ModuleType, compiled: bool,
+                 method: str):
         self.composition, self.integrator, self.compiled = composition, integrator, compiled
+        # the entry points the integrator calls (the RK4 step: RK4's only)
+        self.names = ENTRY_POINTS if method == "rk4" else ENTRY_POINTS[:-1]
         self.__name__, self.__file__ = composition.__name__, composition.__file__
         self._entry_points: tuple | np.ndarray | None = None
 
@@ -390,12 +393,12 @@ class Kernel:
             module = self.composition
             if not self.compiled:
                 self._entry_points = tuple(getattr(module, f"system_{name}")
-                                           for name in ENTRY_POINTS)
+                                           for name in self.names)
             else:
                 with entry_lock(Path(module.__file__)):
                     # (kept: the addresses are valid while the cfunc objects live)
                     self._cfuncs = [_entry_point(getattr(module, f"c_{name}"), name)
-                                    for name in ENTRY_POINTS]
+                                    for name in self.names]
                 self._entry_points = np.array([f.address for f in self._cfuncs], np.int64)
         return self._entry_points
 
@@ -411,12 +414,14 @@ class Kernel:
 
 
 def _c_signature(name: str):
-    """The C signature of entry point ``name``: t, then the data of the arrays it takes."""
+    """The C signature of entry point ``name``: t (the RK4 step: t, h, t_lim, t_new), then
+    the data of the arrays it takes."""
     from numba.core import types
 
-    n_arrays = {"rhs": 6, "update": 5, "outputs": 8, "errors": 7, "stiffness": 3}[name]
-    result = types.float64 if name == "stiffness" else types.void
-    return result(types.float64, *[types.CPointer(types.float64)] * n_arrays)
+    n_scalars, n_arrays = {"rhs": (1, 6), "update": (1, 5), "outputs": (1, 8), "errors": (1, 7),
+                           "stiffness": (1, 3), "rk4": (4, 10)}[name]
+    result = types.float64 if name in ("stiffness", "rk4") else types.void
+    return result(*[types.float64] * n_scalars, *[types.CPointer(types.float64)] * n_arrays)
 
 
 def _entry_point(fn, name: str):
@@ -463,7 +468,7 @@ def load_kernel(system: System, compiled: bool = True, method: str = "dopri5",
     composition = _import(_write_once(text), compiled, functions)
     integrator = _import(_write_once(integrator_source(system, method), "hgo_integrator"),
                          compiled)
-    _LOADED[key] = Kernel(composition, integrator, compiled)
+    _LOADED[key] = Kernel(composition, integrator, compiled, method)
     return _LOADED[key]
 
 

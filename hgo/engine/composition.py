@@ -20,8 +20,9 @@ import re
 from hgo.core.components import no_update
 from hgo.engine.system import System
 
-ENTRY_POINTS = ("rhs", "update", "outputs", "errors", "stiffness")
-"""The composition's functions in the order of the integrator's tuple ``S``."""
+ENTRY_POINTS = ("rhs", "update", "outputs", "errors", "stiffness", "rk4")
+"""The composition's functions in the order of the integrator's ``S`` (``rk4``: for the RK4
+integrator only)."""
 
 
 def _components(system: System) -> list:
@@ -119,20 +120,37 @@ def _records(system: System, names: dict) -> tuple[list[str], list[str], dict[st
 # (``system_<name>``, the pure-Python path) and as the C entry point ``c_<name>`` on the
 # data pointers the integrator passes (``carray``: no copy, no reference count; lengths
 # from the header). Every body is flat: the records it uses bound as locals at its top,
-# the measurement written out; only the components' own functions are called.
+# the measurement written out; only the components' own functions are called (and, in
+# the RK4 step, the composed right-hand side, update and stiffness, inlined).
 ARRAYS = {"rhs": "z d m P w dz", "update": "z d m P w", "outputs": "z d m P w y u xh",
-          "errors": "z d m P w y xh", "stiffness": "z d P"}
+          "errors": "z d m P w y xh", "stiffness": "z d P", "rk4": "z d m P w k1 k2 k3 k4 zt"}
+SCALARS = {"rk4": "t, h, t_lim, t_new"}  # (the others: t)
 LENGTHS = {"z": "NZ", "d": "ND", "m": "NY", "P": "NP", "w": "NW", "dz": "NZ", "y": "NY",
-           "u": "NU", "xh": "NXH"}
+           "u": "NU", "xh": "NXH", "k1": "NZ", "k2": "NZ", "k3": "NZ", "k4": "NZ", "zt": "NZ"}
+# called by the RK4 step (compiled into it): the others are only entry points
+CALLED = ("rhs", "update", "stiffness")
+# One RK4 step from (t, z), then the discrete update at t_new; the stiffness after it
+RK4 = ["    system_rhs(t, z, d, m, P, w, k1)",
+       "    for i in range(NZ):", "        zt[i] = z[i] + 0.5 * h * k1[i]",
+       "    system_rhs(t + 0.5 * h, zt, d, m, P, w, k2)",
+       "    for i in range(NZ):", "        zt[i] = z[i] + 0.5 * h * k2[i]",
+       "    system_rhs(t + 0.5 * h, zt, d, m, P, w, k3)",
+       "    for i in range(NZ):", "        zt[i] = z[i] + h * k3[i]",
+       "    system_rhs(min(t + h, t_lim), zt, d, m, P, w, k4)",
+       "    h6 = h / 6.0",
+       "    for i in range(NZ):", "        z[i] += h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])",
+       "    system_update(t_new, z, d, m, P, w)",
+       "    return system_stiffness(t_new, z, d, P)"]
 
 
 def _function(name: str, body: list[str], bindings: dict[str, str]) -> list[str]:
     """``system_<name>`` and ``c_<name>`` with ``body``, after the records it uses."""
     text = "\n".join(body)
     used = [line for local, line in bindings.items() if re.search(rf"\b{local}\b", text)]
-    arrays = ARRAYS[name].split()
-    return ["", "", f"def system_{name}(t, {', '.join(arrays)}):", *used, *body,
-            "", "", f"def c_{name}(t, {', '.join(a + '_ptr' for a in arrays)}):",
+    arrays, scalars = ARRAYS[name].split(), SCALARS.get(name, "t")
+    return ["", "", *(["@ijit"] if name in CALLED else []),
+            f"def system_{name}({scalars}, {', '.join(arrays)}):", *used, *body,
+            "", "", f"def c_{name}({scalars}, {', '.join(a + '_ptr' for a in arrays)}):",
             *[f"    {a} = carray({a}_ptr, {LENGTHS[a]})" for a in arrays], *used, *body]
 
 
@@ -198,7 +216,7 @@ def composition_text(system: System, names: dict, noisy: bool) -> str:
              f"NZ = {system.nz}", f"ND = {system.nd}", f"NY = {ny}", f"NU = {nu}",
              f"NP = {system.p_slices[-1][1]}", f"NXH = {system.nxh}",
              f"NW = {work_length(system)}"]
-    for name, body in zip(ENTRY_POINTS, (rhs, update, outputs, errors, stiffness),
+    for name, body in zip(ENTRY_POINTS, (rhs, update, outputs, errors, stiffness, RK4),
                           strict=True):
         lines += _function(name, body, bindings)
     return "\n".join(lines) + "\n"

@@ -250,31 +250,39 @@ def _data_pointer(typingctx, arr):
 
 
 def _c_call(result):
-    """An intrinsic calling the C function at address ``addr`` (an int64) with ``t`` and a
-    tuple of data pointers, returning ``result`` (void or float64): how the integrator calls
-    the composition's entry points (numba ``cfunc``). A plain call through an address:
+    """An intrinsic calling the C function at address ``addr`` (an int64) with a float (or a
+    tuple of floats) and a tuple of data pointers, returning ``result`` (void or float64):
+    how the integrator calls the composition's entry points (numba ``cfunc``). A plain
+    call through an address:
     no first-class function object to unbox on every call of the integrator from Python
     (numba's ``FunctionType`` arguments cost 20-170 us a call there)."""
 
     @intrinsic
-    def call(typingctx, addr, t, pointers):
+    def call(typingctx, addr, scalars, pointers):
         if not (isinstance(addr, types.Integer) and isinstance(pointers, types.UniTuple)):
             return None
+        n_scalars = len(scalars) if isinstance(scalars, types.UniTuple) else 1
 
         def codegen(context, builder, signature, args):
             from llvmlite import ir
 
-            address, time, data = args
+            address, values, data = args
+            if n_scalars > 1 or isinstance(signature.args[1], types.UniTuple):
+                values = [builder.extract_value(values, i) for i in range(n_scalars)]
+            else:
+                values = [values]
             n = len(signature.args[2])
             pointer = context.get_value_type(signature.args[2].dtype)
             ret = ir.VoidType() if result is types.void else context.get_value_type(result)
-            fnty = ir.FunctionType(ret, [ir.DoubleType()] + [pointer] * n)
+            fnty = ir.FunctionType(ret, [ir.DoubleType()] * n_scalars + [pointer] * n)
             fn = builder.inttoptr(address, fnty.as_pointer())
-            value = builder.call(fn, [time] + [builder.extract_value(data, i)
+            value = builder.call(fn, values + [builder.extract_value(data, i)
                                                for i in range(n)])
             return context.get_dummy_value() if result is types.void else value
 
-        return result(addr, types.float64, pointers), codegen
+        scalar_types = (types.UniTuple(types.float64, n_scalars)
+                        if isinstance(scalars, types.UniTuple) else types.float64)
+        return result(addr, scalar_types, pointers), codegen
 
     return call
 
@@ -283,8 +291,8 @@ _call_void = _c_call(types.void)
 _call_float = _c_call(types.float64)
 
 
-def _py_call(fn, t, arrays):
-    return fn(t, *arrays)
+def _py_call(fn, scalars, arrays):
+    return fn(*(scalars if isinstance(scalars, tuple) else (scalars,)), *arrays)
 
 
 def c_call_functions(compiled: bool) -> dict:
