@@ -1,4 +1,5 @@
-"""What a new composition costs to compile (issue 41's target: <= 0.6 s CPU).
+"""What a new composition costs to compile (issue 41's target: <= 0.6 s CPU), and a first
+use of its integrator (target: <= 6 s once per method and layout).
 
     python benchmarks/compile_bench.py [--reps N] [--presets sp_fig1,dhlm_example]
 
@@ -6,18 +7,24 @@ For each preset, fresh processes build the experiment and run it once
 (``hgo.running.runner.simulate_config``: build, simulate, post-process; no files, no
 figures), in turn:
 
-* **new**: with an empty kernel cache (``HGO_CACHE_DIR``, a new temporary folder each
-  time): the composition is not in the cache; numba's cache of hgo's own helpers (next
-  to their modules) is kept, as for a new combination of known components;
-* **cached**: the same run again with that folder (everything loaded from the cache).
+* **empty**: with an empty kernel cache (``HGO_CACHE_DIR``, a new temporary folder each
+  time): neither the composition nor its integrator is in the cache; numba's cache of
+  hgo's own helpers (next to their modules) is kept, as for a new combination of known
+  components;
+* **new**: with a new kernel cache holding only the integrators (``hgo_integrator_*``,
+  the tableau texts and numba's cache of them, copied from the empty run's folder): the
+  composition is new, its integrator known, as after an edit of a plant;
+* **cached**: the run again with the empty run's folder (everything loaded from it).
 
 Each process reports its CPU seconds (``time.process_time``: all its threads) from just
 before building the experiment to the end of the run, and the seconds numba's compile
-events took inside (``hgo.engine.jit.run_seconds``). The new composition's cost is
-``new - cached`` CPU (medians of ``--reps`` pairs, the pairs interleaved across presets).
-Every line carries the load average: the machine is shared.
+events took inside (``hgo.engine.jit.run_seconds``). A new composition costs
+``new - cached`` CPU, a first use of an integrator ``empty - new`` (medians of ``--reps``
+triples, interleaved across presets). Every line carries the load average: the machine
+is shared.
 
-The last line is ``compile_new_composition: <preset>=<CPU s> ...``.
+The last line is ``compile_new_composition: <preset>=<CPU s> ...``, the one before it
+``compile_new_integrator: <preset>=<CPU s> ...``.
 """
 
 from __future__ import annotations
@@ -25,10 +32,12 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 import statistics
 import subprocess
 import sys
 import tempfile
+from pathlib import Path
 
 PRESETS = ("sp_fig1", "dhlm_example")
 
@@ -61,23 +70,39 @@ def load() -> str:
     return "/".join(f"{x:.1f}" for x in os.getloadavg())
 
 
-def bench(presets: list[str], reps: int) -> dict[str, float]:
-    """Median CPU seconds of new minus cached, per preset (table lines printed)."""
-    rows: dict[str, list[tuple[dict, dict]]] = {p: [] for p in presets}
-    print("| preset | pair | new: CPU s (numba's compile events, wall s) | cached: CPU s "
-          "(numba, wall s) | new - cached, CPU s | load 1/5/15 min |")
-    print("|---|---|---|---|---|---|")
+def integrators_only(cache: str, target: str) -> None:
+    """Copy the integrators of kernel cache ``cache`` (module texts, tableau texts, numba's
+    cache files of the integrator modules) into the empty folder ``target``."""
+    for path in Path(cache).rglob("*"):
+        if path.is_file() and path.name.startswith(("hgo_integrator_", "hgo_tableau_")):
+            dest = Path(target) / path.relative_to(cache)
+            dest.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(path, dest)
+
+
+def bench(presets: list[str], reps: int) -> dict[str, tuple[float, float]]:
+    """Median CPU seconds of (new - cached, empty - new), per preset (table lines printed)."""
+    rows: dict[str, list[tuple[dict, dict, dict]]] = {p: [] for p in presets}
+    print("| preset | triple | empty: CPU s (numba's compile events) | new: CPU s (numba) | "
+          "cached: CPU s (numba) | new - cached | empty - new | load 1/5/15 min |")
+    print("|---|---|---|---|---|---|---|---|")
     for k in range(reps):
         for preset in presets:
-            with tempfile.TemporaryDirectory(prefix="hgo-compile-bench-") as cache:
-                new = one_run(preset, cache)
+            with (tempfile.TemporaryDirectory(prefix="hgo-compile-bench-") as cache,
+                  tempfile.TemporaryDirectory(prefix="hgo-compile-bench-") as fresh):
+                empty = one_run(preset, cache)
+                integrators_only(cache, fresh)
+                new = one_run(preset, fresh)
                 cached = one_run(preset, cache)
-            rows[preset].append((new, cached))
-            print(f"| {preset} | {k + 1} | {new['cpu']:.2f} ({new['numba']:.2f}) | "
+            rows[preset].append((empty, new, cached))
+            print(f"| {preset} | {k + 1} | {empty['cpu']:.2f} ({empty['numba']:.2f}) | "
+                  f"{new['cpu']:.2f} ({new['numba']:.2f}) | "
                   f"{cached['cpu']:.2f} ({cached['numba']:.2f}) | "
-                  f"{new['cpu'] - cached['cpu']:.2f} | {load()} |", flush=True)
-    return {p: statistics.median(n["cpu"] - c["cpu"] for n, c in pairs)
-            for p, pairs in rows.items()}
+                  f"{new['cpu'] - cached['cpu']:.2f} | {empty['cpu'] - new['cpu']:.2f} | "
+                  f"{load()} |", flush=True)
+    return {p: (statistics.median(n["cpu"] - c["cpu"] for _, n, c in triples),
+                statistics.median(e["cpu"] - n["cpu"] for e, n, _ in triples))
+            for p, triples in rows.items()}
 
 
 def main() -> None:
@@ -87,7 +112,10 @@ def main() -> None:
     args = parser.parse_args()
     print(f"# compile of a new composition (CPU s; start load {load()})\n")
     medians = bench([p for p in args.presets.split(",") if p], args.reps)
-    print("\ncompile_new_composition: " + " ".join(f"{p}={v:.2f}" for p, v in medians.items()))
+    print("\ncompile_new_integrator: " + " ".join(f"{p}={v[1]:.2f}"
+                                                  for p, v in medians.items()))
+    print("compile_new_composition: " + " ".join(f"{p}={v[0]:.2f}"
+                                                 for p, v in medians.items()))
 
 
 if __name__ == "__main__":

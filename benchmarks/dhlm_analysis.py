@@ -81,7 +81,7 @@ def _timings(t: np.ndarray) -> tuple[dict, float, object]:
 
     with ExitStack() as stack:
         for kernel in kernels.values():
-            stack.enter_context(mock.patch.object(kernel, "integrate", timed))
+            stack.enter_context(mock.patch.object(kernel.integrator, "integrate", timed))
         *totals, (t_rk45, sol) = interleaved_median_times(
             [lambda k=key: run(k) for key in runs] + [rk45], REPS)
     total = dict(zip(runs, (1e3 * s for s, _ in totals), strict=True))
@@ -97,7 +97,7 @@ def _counts(method: str, rtol: float) -> dict:
     exp = _experiment(HORIZON, method, rtol)
     module = load_kernel(exp.system, compiled=False, method=method)
     n = {"nfev": 0, "trials": 0, "rejected": 0}
-    rhs, trial = module.system_rhs, module._trial
+    rhs, trial = module.composition.system_rhs, module.integrator._trial
 
     def counted_rhs(*args):
         n["nfev"] += 1
@@ -110,9 +110,11 @@ def _counts(method: str, rtol: float) -> dict:
         return err
 
     with ExitStack() as stack:
-        stack.enter_context(mock.patch.object(module, "system_rhs", counted_rhs))
-        stack.enter_context(mock.patch.object(module, "_trial", counted_trial))
-        stack.enter_context(mock.patch.object(engine, "_kernel", lambda s, m: module))
+        # (before the kernel's first call: it takes the composition's functions then)
+        stack.enter_context(mock.patch.object(module.composition, "system_rhs", counted_rhs))
+        stack.enter_context(mock.patch.object(module.integrator, "_trial", counted_trial))
+        stack.enter_context(mock.patch.object(engine, "_kernel",
+                                              lambda s, m, noisy=True: module))
         run_experiment(exp)
     return n
 

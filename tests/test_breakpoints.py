@@ -72,15 +72,15 @@ def test_apa_nominal_input_and_max_rate_do_not_depend_on_the_tolerance(rtol: flo
 def _trials(monkeypatch, system: System, solver: SolverSettings) -> list[tuple]:
     """(t, h, error norm) of every trial step of a run on the pure-Python kernel."""
     module = codegen.load_kernel(system, compiled=False, method=solver.method, noisy=False)
-    trial, seen = module._trial, []
+    trial, seen = module.integrator._trial, []
 
-    def spy(t, h, *args):
-        err = trial(t, h, *args)
+    def spy(S, t, h, *args):
+        err = trial(S, t, h, *args)
         seen.append((t, h, err))
         return err
 
     with monkeypatch.context() as patch:  # (the same module serves the next call)
-        patch.setattr(module, "_trial", spy)
+        patch.setattr(module.integrator, "_trial", spy)
         patch.setattr(simulate_module, "_kernel", lambda system, method, noisy: module)
         assert simulate(system, solver, no_noise(1)).ok
     return seen

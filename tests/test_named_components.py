@@ -12,7 +12,7 @@ import pytest
 from scipy.linalg import expm
 
 from hgo.core.components import Params, Plant
-from hgo.engine.codegen import kernel_source
+from hgo.engine.codegen import composition_source
 from hgo.engine.simulate import SolverSettings, no_noise, simulate, simulate_ensemble
 from hgo.engine.system import System
 from hgo.observers.triangular import triangular_hgo
@@ -68,13 +68,17 @@ def test_matrix_parameter_read_by_name_gives_the_exact_solution():
 def test_kernel_text_names_parameters_and_writes_constants_as_literals():
     """The generated record reads each value from P at a constant offset, by name, and
     holds the dimension as a literal and the function by its injected name."""
-    text, functions = kernel_source(System(linear_plant(phi=cube), [_observer()]))
-    assert "A=view2(P, 0, 2, 2)," in text
-    assert "g=view(P, 4, 6)," in text
-    assert "n=2," in text
-    assert "law=0," in text and "K=view(P, 9, 11)," in text  # the observer's, after P[:6]
+    text, functions = composition_source(System(linear_plant(phi=cube), [_observer()]))
+    bindings = "\n".join(line for line in text.splitlines() if " = _P" in line)
+
+    def bound(field: str) -> bool:  # one keyword argument of a record's binding
+        return any(f"{before}{field}{after}" in bindings for before in "(, "
+                   for after in ",)")
+
+    assert bound("A=view2(P, 0, 2, 2)") and bound("g=view(P, 4, 6)") and bound("n=2")
+    assert bound("law=0") and bound("K=view(P, 9, 11)")  # the observer's, after P[:6]
     phi_name = next(k for k, fn in functions.items() if fn is cube)
-    assert f"phi={phi_name}," in text
+    assert bound(f"phi={phi_name}")
 
 
 def test_function_constant_is_called_by_the_kernel():

@@ -1,25 +1,30 @@
-"""Compose a :class:`~hgo.engine.system.System` into one kernel module and compile it.
+"""Compile a :class:`~hgo.engine.system.System`: its integrator and its composition, apart.
 
-The generated module is the header written here (layout constants and the composed
-``system_rhs``/``system_update``/``system_outputs``) followed by the integrators of
-:mod:`hgo.engine.kernel_template`. It is written to a cache folder under a name that
-hashes its text and the source of every component function it calls, so numba's
+Two generated modules make a kernel (:class:`Kernel`):
+
+* the **integrator** (:mod:`hgo.engine.kernel_template` with the method's stages from
+  :mod:`hgo.engine.tableau`, after a header of the layout's sizes): the same text, so the
+  same numba cache entry, for every composition of one method and layout; compiled once;
+* the **composition** (:mod:`hgo.engine.composition`): the components' functions on their
+  slices of the flat vectors, compiled per experiment into five C entry points (numba
+  ``cfunc``) whose addresses the integrator gets as its argument ``S``.
+
+Each is written to a cache folder under a name that hashes its text (the composition's
+text also names every component function with a hash of its source files), so numba's
 on-disk cache (``cache=True``) is reused by later processes and never goes stale.
 
 If numba cannot compile a component (a user's plant written with Python objects, say),
-the same module is loaded with ``jit`` as the identity: a pure-Python path, slower, with
+the same modules are loaded with ``jit`` as the identity: a pure-Python path, slower, with
 one warning saying why.
 """
 
 from __future__ import annotations
 
-import dis
 import errno
 import functools
 import hashlib
 import importlib.util
 import inspect
-import math
 import os
 import shutil
 import sys
@@ -31,9 +36,24 @@ from contextlib import contextmanager
 from pathlib import Path
 from types import ModuleType
 
-from hgo.core.components import no_update
+import numpy as np
+
 from hgo.engine import tableau
-from hgo.engine.jit import borrow_function, stack_function, view2_function, view_function
+from hgo.engine.composition import (
+    ENTRY_POINTS,
+    _components,
+    _functions,
+    composition_text,
+    integrator_constants,
+)
+from hgo.engine.jit import (
+    borrow_function,
+    c_call_functions,
+    pointer_function,
+    stack_function,
+    view2_function,
+    view_function,
+)
 from hgo.engine.system import System
 from hgo.engine.tableau import ADAPTIVE, method_source, scipy_tableau_files
 
@@ -73,225 +93,6 @@ def _fallback_dir(wanted: Path, why: str) -> Path:
                       "this process only (set HGO_CACHE_DIR to a writable folder)",
                       RuntimeWarning, stacklevel=3)
     return _PRIVATE[wanted]
-
-
-def _components(system: System) -> list:
-    """Plant, observers and controller, in the order of the parameter slices."""
-    return [system.plant, *system.observers] + ([system.controller] if system.controller
-                                                else [])
-
-
-def _functions(system: System) -> tuple[dict[str, object], dict]:
-    """Injected name -> component function (one per distinct function), and the call names.
-
-    Functions among a component's constants (a user's phi, say) are injected too; the
-    ``"const"`` entry maps (component index, constant name) to their injected names."""
-    named: dict[str, object] = {}
-
-    def add(prefix: str, fn: object) -> str:
-        for name, known in named.items():
-            if known is fn:
-                return name
-        name = f"{prefix}_{len(named)}"
-        named[name] = fn
-        return name
-
-    plant = system.plant
-    calls = {
-        "plant_f": add("c_plant_f", plant.f),
-        "plant_h": add("c_plant_h", plant.h),
-        "obs": [
-            (add("c_obs_f", o.f), add("c_obs_update", o.update), add("c_obs_est", o.estimate))
-            for o in system.observers
-        ],
-        "stiff": [None if getattr(o, "stiffness", None) is None
-                  else add("c_obs_stiff", o.stiffness) for o in system.observers],
-        "ctrl": None if system.controller is None else add("c_ctrl_u", system.controller.u),
-        "const": {(k, name): add("c_const", value)
-                  for k, comp in enumerate(_components(system)) if comp.params is not None
-                  for name, value in comp.params.constants.items() if callable(value)},
-    }
-    return named, calls
-
-
-def _v(arr: str, a: int, b: int) -> str:
-    """A borrowed view ``arr[a:b]`` (see :mod:`hgo.engine.jit`)."""
-    return f"view({arr}, {a}, {b})"
-
-
-def _literal(value: object) -> str:
-    """A constant as kernel text (floats exactly, inf and nan through math)."""
-    if isinstance(value, float) and not math.isfinite(value):
-        return "math.nan" if math.isnan(value) else f"{'-' if value < 0 else ''}math.inf"
-    if isinstance(value, tuple):
-        return "(" + "".join(f"{_literal(v)}, " for v in value) + ")"
-    return repr(value)
-
-
-def _records(system: System, names: dict) -> tuple[list[str], list[str]]:
-    """The record of each component with named parameters (:class:`hgo.core.components.Params`):
-    its class and an inlined builder reading the flat vector P at constant offsets, with
-    the constants as literals; and, per component, the argument its functions get (the
-    builder's call, or the positional view ``P[a:b]``)."""
-    lines, args = [], []
-    for k, (comp, (a, b)) in enumerate(zip(_components(system), system.p_slices,
-                                           strict=True)):
-        spec = comp.params
-        if spec is None:
-            args.append(_v("P", a, b))
-            continue
-        fields, values = [], []
-        for name, shape, o in zip(spec.names, spec.shapes, spec.offsets, strict=True):
-            fields.append(name)
-            if not shape:
-                values.append(f"P[{a + o}]")
-            elif len(shape) == 1:
-                values.append(_v("P", a + o, a + o + shape[0]))
-            elif len(shape) == 2:
-                values.append(f"view2(P, {a + o}, {shape[0]}, {shape[1]})")
-            else:
-                raise ValueError(f"{comp.name}: parameter {name} has {len(shape)} dimensions; "
-                                 "at most 2 are supported")
-        for name, value in spec.constants.items():
-            fields.append(name)
-            if name == "scratch":  # scratch space on the caller's stack (hgo.engine.jit)
-                values.append("scratch")
-                continue
-            values.append(names["const"][(k, name)] if callable(value) else _literal(value))
-        lines += [f"_P{k} = namedtuple('_P{k}', {fields!r})", "", "",
-                  "@cjit", f"def _p{k}(P{', scratch' if 'scratch' in spec.constants else ''}):",
-                  f'    """The parameters of {comp.name} by name: run-time values read from P, '
-                  'constants."""',
-                  f"    return _P{k}(",
-                  *[f"        {name}={value}," for name, value in zip(fields, values,
-                                                                     strict=True)],
-                  "    )", "", ""]
-        scratch = spec.constants.get("scratch")
-        args.append(f"_p{k}(P, stack({scratch}))" if scratch else f"_p{k}(P)")
-    return lines, args
-
-
-def _header(system: System, names: dict, noisy: bool) -> str:
-    nx, ny, nu = system.plant.nx, len(system.plant.output_names), len(system.plant.input_names)
-    zs, ds, xs = system.z_slices, system.d_slices, system.xh_slices
-    ctrl_obs = system.controlled_observer()
-    n_xc = 0 if ctrl_obs is None else xs[ctrl_obs][1] - xs[ctrl_obs][0]
-    y, u = _v("w", 0, ny), _v("w", ny, ny + nu)
-    record_lines, p_args = _records(system, names)
-
-    def obs_args(k: int) -> tuple[str, str, str]:
-        return _v("z", *zs[k + 1]), _v("d", *ds[k]), p_args[k + 1]
-
-    updates = [o.update for o in system.observers]
-    has_update = any(fn is not no_update for fn in updates)
-    # the update needs u only if some update reads it (u may cost a controller evaluation)
-    update_u = ctrl_obs is not None and any(_reads(fn, 4) for fn in updates
-                                            if fn is not no_update)
-    # y = h(x) + m into w; a run without noise: y is h(x) itself, so the compiler can share
-    # what the plant and an observer compute of it (e.g. sin x1 and sin y)
-    measure = [f"    {names['plant_h']}(t, {_v('z', 0, nx)}, {p_args[0]}, {y})",
-               *([f"    for i in range({ny}):", "        w[i] += m[i]"] if noisy else
-                 ["    # noiseless kernel: y = h(x)"])]
-    lines = [
-        "import math",
-        "from collections import namedtuple",
-        "",
-        "import numpy as np",
-        "",
-        *record_lines,
-        f"HAS_UPDATE = {has_update}",
-        f"NZ = {system.nz}",
-        f"NX = {nx}",
-        f"NY = {ny}",
-        f"NU = {nu}",
-        f"NXH = {system.nxh}",
-        f"NOBS = {len(system.observers)}",
-        f"NW = {ny + nu + n_xc}",
-        f"EST_MAP = np.array({system.estimate_map().tolist()}, dtype=np.int64)",
-        f"YHAT_COL = np.array({system.yhat_columns().tolist()}, dtype=np.int64)",
-        f"OBS_OF = np.array({system.xh_observer().tolist()}, dtype=np.int64)",
-        "",
-        "",
-        "@ijit",
-        "def _signals(t, z, d, m, P, w):",
-        '    """Measured outputs y = h(x) + m and the input u, into the work vector w."""',
-        *measure,
-    ]
-    if ctrl_obs is not None:
-        k = ctrl_obs
-        zk, dk, pk = obs_args(k)
-        xc = _v("w", ny + nu, ny + nu + n_xc)
-        if reads_estimate(system):  # (an open-loop input ignores the estimate)
-            lines.append(f"    {names['obs'][k][2]}(t, {zk}, {dk}, {pk}, {xc})")
-        lines.append(f"    {names['ctrl']}(t, {xc}, {y}, {p_args[-1]}, {u})")
-    lines += ["", "", "@ijit", "def _signals_y(t, z, d, m, P, w):",
-              '    """Measured outputs y = h(x) + m only (w[u] is left as it is)."""',
-              *measure]
-    lines += ["", "", "@ijit", "def system_rhs(t, z, d, m, P, w, dz):",
-              "    _signals(t, z, d, m, P, w)",
-              f"    {names['plant_f']}(t, {_v('z', 0, nx)}, {u}, {p_args[0]}, "
-              f"{_v('dz', 0, nx)})"]
-    for k, (f, _, _) in enumerate(names["obs"]):
-        zk, dk, pk = obs_args(k)
-        lines.append(f"    {f}(t, {zk}, {dk}, {y}, {u}, {pk}, {_v('dz', *zs[k + 1])})")
-    lines += ["", "", "@ijit", "def system_update(t, z, d, m, P, w):"]
-    if not has_update:  # no discrete logic: nothing to evaluate between steps
-        lines.append("    return")
-    else:
-        lines.append("    _signals(t, z, d, m, P, w)" if update_u else
-                     "    _signals_y(t, z, d, m, P, w)  # no update reads u")
-    for k, (_, upd, _) in enumerate(names["obs"]):
-        if updates[k] is no_update:
-            continue
-        zk, dk, pk = obs_args(k)
-        lines.append(f"    {upd}(t, {zk}, {dk}, {y}, {u}, {pk})")
-    lines += ["", "", "@ijit", "def system_outputs(t, z, d, m, P, w, y, u, xh):",
-              "    _signals(t, z, d, m, P, w)",
-              f"    for i in range({ny}):", "        y[i] = w[i]",
-              f"    for i in range({nu}):", f"        u[i] = w[{ny} + i]"]
-    estimates = [f"    {est}(t, {', '.join(obs_args(k)[:2])}, {p_args[k + 1]}, "
-                 f"{_v('xh', *xs[k])})" for k, (_, _, est) in enumerate(names["obs"])]
-    lines += estimates
-    # the error metrics read y and x^ only: their points cost no controller evaluation
-    lines += ["", "", "@ijit", "def system_errors(t, z, d, m, P, w, y, xh):",
-              '    """y = h(x) + m and x^ only (what the error metrics read; u is not '
-              'evaluated)."""',
-              "    _signals_y(t, z, d, m, P, w)",
-              f"    for i in range({ny}):", "        y[i] = w[i]", *estimates]
-    lines += ["", "", "@ijit", "def system_stiffness(t, z, d, P):",
-              '    """Largest spectral radius declared *now* by components with a hook."""',
-              "    rho = 0.0"]
-    for k, fn in enumerate(names["stiff"]):
-        if fn is not None:
-            zk, dk, pk = obs_args(k)
-            lines.append(f"    rho = max(rho, {fn}(t, {zk}, {dk}, {pk}))")
-    lines.append("    return rho")
-    return "\n".join(lines) + "\n\n"
-
-
-def reads_estimate(system: System) -> bool:
-    """Whether the controller's input may depend on its observer's estimate (the
-    argument ``xhat`` of ``u``): False for no controller or an open-loop input."""
-    return system.controller is not None and _reads(system.controller.u, 1)
-
-
-def _reads(fn: object, index: int) -> bool:
-    """Whether Python function ``fn`` may read its positional argument ``index``.
-
-    Conservative: True unless the bytecode provably never touches that argument (used to
-    skip computing signals, e.g. a controller's input, that a component ignores).
-    """
-    code = getattr(fn, "__code__", None)
-    if code is None or index >= code.co_argcount:
-        return True
-    name = code.co_varnames[index]
-    if name in code.co_cellvars:  # captured by an inner function
-        return True
-    for ins in dis.get_instructions(code):
-        val = ins.argval
-        if val == name or (isinstance(val, tuple) and name in val):
-            return True
-    return False
 
 
 def _sections() -> dict[str, str]:
@@ -338,11 +139,25 @@ def _identity(fn: object) -> str:
     return f"# {name} {digest.hexdigest()[:16]}"
 
 
-def kernel_source(system: System, method: str = "dopri5", noisy: bool = True
-                  ) -> tuple[str, dict[str, object]]:
-    """The generated module text (with the integrator ``method`` only) and its functions;
-    ``noisy=False``: for runs whose measurement noise is zero (y = h(x), m ignored)."""
+def composition_source(system: System, noisy: bool = True) -> tuple[str, dict[str, object]]:
+    """The composition's module text (:mod:`hgo.engine.composition`) and the component
+    functions it calls by injected name; ``noisy=False``: for runs whose measurement noise
+    is zero (y = h(x), m ignored). Its first lines name every component function with a
+    hash of its source files, so the text (and the cache entry named by its hash) changes
+    when a component or a helper it calls does."""
     functions, calls = _functions(system)
+    ids = "\n".join(f"{_identity(fn)} -> {name}" for name, fn in functions.items())
+    text = ("# Generated by hgo.engine.codegen; do not edit.\n" + ids + "\n"
+            + f"# composition; numba fastmath {FASTMATH}, noalias, components uncached; "
+              "function constants registered (no run-time value); C entry points\n"
+            + composition_text(system, calls, noisy))
+    return text, functions
+
+
+def integrator_source(system: System, method: str) -> str:
+    """The integrator module text for ``method`` and the layout of ``system``
+    (:func:`hgo.engine.composition.integrator_constants`): the same text, so the same
+    cache entry and compiled code, for every composition of that layout."""
     sections = _sections()
     if method in ADAPTIVE:
         integrator = _integrator_source(method) + sections["adaptive"]
@@ -350,14 +165,12 @@ def kernel_source(system: System, method: str = "dopri5", noisy: bool = True
         integrator = sections["rk4"]
     else:
         raise ValueError(f"solver.method: '{method}' not in {sorted(ADAPTIVE + ('rk4',))}")
-    ids = "\n".join(f"{_identity(fn)} -> {name}" for name, fn in functions.items())
-    text = ("# Generated by hgo.engine.codegen; do not edit.\n" + ids + "\n"
-            + f"# integrator: {method}; numba fastmath {FASTMATH}, noalias, components "
-              "uncached; function constants registered (no run-time value)\n"
-            + _header(system, calls, noisy)
+    return ("# Generated by hgo.engine.codegen; do not edit.\n"
+            + f"# integrator: {method}; numba fastmath {FASTMATH}, noalias\n"
+            + "import math\n\nimport numpy as np\n\n"
+            + integrator_constants(system)
             + "# --- common ---\n" + sections["common"]
             + f"# --- {method} ---\n" + integrator)
-    return text, functions
 
 
 def _digest(text: str) -> str:
@@ -415,12 +228,12 @@ def _cache_write(name: str, text: str) -> Path:
     return folder / name
 
 
-def _write_once(text: str) -> Path:
-    """The cache entry of ``text``, named by its hash; an existing entry is verified (hash of
-    its text) and a corrupted one (a folder in its place too) rewritten, with its numba
-    cache, after one warning."""
+def _write_once(text: str, prefix: str = "hgo_kernel") -> Path:
+    """The cache entry of ``text``, named ``<prefix>_<hash>.py``; an existing entry is
+    verified (hash of its text) and a corrupted one (a folder in its place too) rewritten,
+    with its numba cache, after one warning."""
     digest = _digest(text)
-    path = cache_dir() / f"hgo_kernel_{digest}.py"
+    path = cache_dir() / f"{prefix}_{digest}.py"
     if path.exists():
         try:
             intact = _digest(path.read_text()) == digest
@@ -546,44 +359,139 @@ MAX_UNSAVED = 64  # functions (the kernel and its helpers) whose save may fail i
 _COMPILED: set = set()
 
 
-def forget_kernel(module: ModuleType) -> None:
-    """Drop a loaded kernel module (and its numba cache) so the next load recompiles it."""
-    for key in [k for k, m in _LOADED.items() if m is module]:
+def forget_kernel(kernel: Kernel) -> None:
+    """Drop a loaded kernel (its composition and integrator modules, and their numba
+    caches) so that the next load recompiles both."""
+    for key in [k for k, known in _LOADED.items() if known is kernel]:
         del _LOADED[key]
-    sys.modules.pop(module.__name__, None)
-    _COMPILED.difference_update([f for f in _COMPILED if f.py_func.__module__ == module.__name__])
-    purge_numba_cache(Path(module.__file__))
+    for module in (kernel.composition, kernel.integrator):
+        for key in [k for k, m in _MODULES.items() if m is module]:
+            del _MODULES[key]
+        sys.modules.pop(module.__name__, None)
+        _COMPILED.difference_update([f for f in _COMPILED
+                                     if f.py_func.__module__ == module.__name__])
+        purge_numba_cache(Path(module.__file__))
+
+
+class Kernel:
+    """A composition bound to its integrator: :meth:`function` gives the integrator's
+    ``integrate``, ``integrate_ensemble`` and ``dense_signals`` with the composition's
+    entry points as their first argument ``S`` (:mod:`hgo.engine.kernel_template`)."""
+
+    def __init__(self, composition: ModuleType, integrator: ModuleType, compiled: bool,
+                 method: str):
+        self.composition, self.integrator, self.compiled = composition, integrator, compiled
+        # the entry points the integrator calls (the RK4 step: RK4's only)
+        self.names = ENTRY_POINTS if method == "rk4" else ENTRY_POINTS[:-1]
+        self.__name__, self.__file__ = composition.__name__, composition.__file__
+        self._entry_points: tuple | np.ndarray | None = None
+
+    def entry_points(self) -> tuple | np.ndarray:
+        """``S``: the composition's five functions; compiled (numba ``cfunc``, or loaded
+        from numba's cache) on the first call, under the entry's lock."""
+        if self._entry_points is None:
+            module = self.composition
+            if not self.compiled:
+                self._entry_points = tuple(getattr(module, f"system_{name}")
+                                           for name in self.names)
+            else:
+                with entry_lock(Path(module.__file__)):
+                    # (kept: the addresses are valid while the cfunc objects live)
+                    self._cfuncs = [_entry_point(getattr(module, f"c_{name}"), name)
+                                    for name in self.names]
+                self._entry_points = np.array([f.address for f in self._cfuncs], np.int64)
+        return self._entry_points
+
+    def function(self, fname: str):
+        """The integrator's function ``fname`` with ``S`` bound: compiled under the
+        integrator's lock on its first call (:func:`compiled_first`)."""
+        fn = compiled_first(getattr(self.integrator, fname), self.integrator.__file__)
+        return functools.partial(fn, self.entry_points())
+
+    def __getattr__(self, name: str):
+        # the integrator's functions by name (integrate.stats, _trial, _step_of, ...)
+        return getattr(self.integrator, name)
+
+
+def _c_signature(name: str):
+    """The C signature of entry point ``name``: t (the RK4 step: t, h, t_lim, t_new), then
+    the data of the arrays it takes."""
+    from numba.core import types
+
+    n_scalars, n_arrays = {"rhs": (1, 6), "update": (1, 5), "outputs": (1, 8), "errors": (1, 7),
+                           "stiffness": (1, 3), "rk4": (4, 10)}[name]
+    result = types.float64 if name in ("stiffness", "rk4") else types.void
+    return result(*[types.float64] * n_scalars, *[types.CPointer(types.float64)] * n_arrays)
+
+
+def _entry_point(fn, name: str):
+    """The composition's function ``fn`` as a numba ``cfunc`` (cached on disk); where numba
+    cannot save it into its cache (a full disk), compiled for this process, one warning."""
+    from numba.core.caching import NullCache
+    from numba.core.ccallback import CFunc
+    from numba.core.sigutils import normalize_signature
+
+    # (numba.cfunc without its compile at decoration: a save that fails is handled here)
+    cfunc = CFunc(fn, normalize_signature(_c_signature(name)), locals={},
+                  options={"error_model": "numpy", "fastmath": set(FASTMATH)})
+    # noalias on the data pointers, as on the integrator's arrays (:func:`_noalias`): the
+    # integrator never passes overlapping arrays to one call
+    customize = cfunc._compiler._customize_flags
+    cfunc._compiler._customize_flags = lambda flags: _set_noalias(customize(flags))
+    cfunc.enable_caching()
+    try:
+        cfunc.compile()
+    except OSError as err:
+        if err.errno not in UNWRITABLE:
+            raise
+        warnings.warn(f"hgo: numba cannot save the compiled kernel into its cache "
+                      f"({os.strerror(err.errno)}); it is compiled for this process only",
+                      RuntimeWarning, stacklevel=4)
+        cfunc._cache = NullCache()
+        cfunc.compile()
+    return cfunc
 
 
 def load_kernel(system: System, compiled: bool = True, method: str = "dopri5",
-                noisy: bool = True) -> ModuleType:
-    """Write (once) and import the kernel module of ``system`` with integrator ``method``.
+                noisy: bool = True) -> Kernel:
+    """The kernel of ``system`` with integrator ``method``: its composition module (written
+    once per composition) and its integrator module (once per method and layout), imported.
 
-    ``compiled=False`` gives the pure-Python module (same code, ``jit`` = identity);
-    ``noisy=False`` the kernel of runs without measurement noise (:func:`kernel_source`).
+    ``compiled=False`` gives the pure-Python kernel (same code, ``jit`` = identity);
+    ``noisy=False`` the composition of runs without measurement noise
+    (:func:`composition_source`).
     """
     key = _layout_key(system, method, compiled, noisy)
     if key in _LOADED:  # no source hashing on every run of a sweep
         return _LOADED[key]
-    text, functions = kernel_source(system, method, noisy)
-    path = _write_once(text)
+    text, functions = composition_source(system, noisy)
+    composition = _import(_write_once(text), compiled, functions)
+    integrator = _import(_write_once(integrator_source(system, method), "hgo_integrator"),
+                         compiled)
+    _LOADED[key] = Kernel(composition, integrator, compiled, method)
+    return _LOADED[key]
+
+
+def _import(path: Path, compiled: bool, functions: dict | None = None) -> ModuleType:
+    """The generated module ``path`` (once per process and mode), with the decorators of
+    ``compiled`` and the component ``functions`` injected."""
     name = path.stem + ("" if compiled else "_py")
-    if name in sys.modules:
-        _LOADED[key] = sys.modules[name]
-        return sys.modules[name]
+    if name in _MODULES:
+        return _MODULES[name]
     spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
     module.__dict__.update(_decorators(compiled))
     component = module.__dict__["component_jit"]
     module.__dict__.update({k: _function_constant(fn) if k.startswith("c_const") and compiled
-                            else component(fn) for k, fn in functions.items()})
+                            else component(fn) for k, fn in (functions or {}).items()})
     sys.modules[name] = module
     spec.loader.exec_module(module)
-    _LOADED[key] = module
+    _MODULES[name] = module
     return module
 
 
-_LOADED: dict[tuple, ModuleType] = {}
+_LOADED: dict[tuple, Kernel] = {}
+_MODULES: dict[str, ModuleType] = {}  # generated modules imported in this process, by name
 
 
 _CONSTANT_FUNCTIONS: dict[tuple, object] = {}
@@ -641,7 +549,8 @@ def _decorators(compiled: bool) -> dict[str, object]:
                 "view": view_function(False), "borrow": borrow_function(False),
                 "view2": view2_function(False), "stack": stack_function(False),
                 "ijit": lambda fn: fn, "component_jit": lambda fn: fn,
-                "cjit": lambda fn: fn}
+                "cjit": lambda fn: fn, "ptr": pointer_function(False),
+                **c_call_functions(False)}
     import numba
 
     # error_model="numpy": a division by zero gives inf/nan (caught as status 1) instead of
@@ -680,6 +589,9 @@ def _decorators(compiled: bool) -> dict[str, object]:
         "view2": view2_function(True),
         "stack": stack_function(True),
         "borrow": borrow_function(True),
+        "ptr": pointer_function(True),
+        **c_call_functions(True),
+        "carray": numba.carray,
     }
 
 

@@ -236,6 +236,79 @@ def borrow_function(compiled: bool):
     return _borrowed if compiled else _py_borrowed
 
 
+@intrinsic
+def _data_pointer(typingctx, arr):
+    """The data pointer of an array: how the integrator hands its arrays to the
+    composition's C entry points (:mod:`hgo.engine.composition`)."""
+    if not isinstance(arr, types.Array):
+        return None
+
+    def codegen(context, builder, signature, args):
+        return arrayobj.make_array(signature.args[0])(context, builder, args[0]).data
+
+    return types.CPointer(arr.dtype)(arr), codegen
+
+
+def _c_call(result):
+    """An intrinsic calling the C function at address ``addr`` (an int64) with a float (or a
+    tuple of floats) and a tuple of data pointers, returning ``result`` (void or float64):
+    how the integrator calls the composition's entry points (numba ``cfunc``). A plain
+    call through an address:
+    no first-class function object to unbox on every call of the integrator from Python
+    (numba's ``FunctionType`` arguments cost 20-170 us a call there)."""
+
+    @intrinsic
+    def call(typingctx, addr, scalars, pointers):
+        if not (isinstance(addr, types.Integer) and isinstance(pointers, types.UniTuple)):
+            return None
+        n_scalars = len(scalars) if isinstance(scalars, types.UniTuple) else 1
+
+        def codegen(context, builder, signature, args):
+            from llvmlite import ir
+
+            address, values, data = args
+            if n_scalars > 1 or isinstance(signature.args[1], types.UniTuple):
+                values = [builder.extract_value(values, i) for i in range(n_scalars)]
+            else:
+                values = [values]
+            n = len(signature.args[2])
+            pointer = context.get_value_type(signature.args[2].dtype)
+            ret = ir.VoidType() if result is types.void else context.get_value_type(result)
+            fnty = ir.FunctionType(ret, [ir.DoubleType()] * n_scalars + [pointer] * n)
+            fn = builder.inttoptr(address, fnty.as_pointer())
+            value = builder.call(fn, values + [builder.extract_value(data, i)
+                                               for i in range(n)])
+            return context.get_dummy_value() if result is types.void else value
+
+        scalar_types = (types.UniTuple(types.float64, n_scalars)
+                        if isinstance(scalars, types.UniTuple) else types.float64)
+        return result(addr, scalar_types, pointers), codegen
+
+    return call
+
+
+_call_void = _c_call(types.void)
+_call_float = _c_call(types.float64)
+
+
+def _py_call(fn, scalars, arrays):
+    return fn(*(scalars if isinstance(scalars, tuple) else (scalars,)), *arrays)
+
+
+def c_call_functions(compiled: bool) -> dict:
+    """``call_void`` and ``call_float`` for generated integrators: a call of the C entry
+    point at an address, or of the Python function itself in pure Python."""
+    if compiled:
+        return {"call_void": _call_void, "call_float": _call_float}
+    return {"call_void": _py_call, "call_float": _py_call}
+
+
+def pointer_function(compiled: bool):
+    """``ptr(a)`` for generated integrators: ``a``'s data pointer, or ``a`` itself in pure
+    Python (where the composition's functions take the arrays)."""
+    return _data_pointer if compiled else _py_borrowed
+
+
 def compile_timer():
     """Context manager measuring the time numba spends compiling inside it: ``with
     compile_timer() as t: ...``, then ``t.duration`` (seconds) if ``t.done``."""

@@ -1,14 +1,21 @@
-"""Integrators of the composed system; this file is *source text* for generated kernels.
+"""Integrators of a composed system; this file is *source text* for generated integrators.
 
 :mod:`hgo.engine.codegen` prepends a header that defines ``jit`` (the functions Python
 calls), ``ijit`` (inlined into their caller, not callable from Python: every other
-function here), ``pjit``, ``prange``,
-``view``, the layout constants and the composed functions ``system_rhs``,
-``system_update``, ``system_outputs``, ``system_errors`` and ``system_stiffness``, then
-appends the section ``common`` and the section of the one integrator the run asks for
-(``rk4``, or ``adaptive`` for ``dopri5``/``dop853``): only that integrator is compiled. The
-result is compiled with numba (or run as plain Python when a user component cannot be
-compiled). Never imported on its own.
+function here), ``pjit``, ``prange``, ``view``, ``ptr``, ``call_void``, ``call_float`` and
+the constants the integrator is specialised on (the sizes ``NZ``, ``NY``, ``NU``, ``NXH``,
+``NOBS``, ``NW``, the error maps ``EST_MAP``, ``YHAT_COL``, ``OBS_OF``, ``HAS_UPDATE`` and
+``HAS_STIFFNESS``), then appends the section ``common`` and the section of the one
+integrator asked for (``rk4``, or ``adaptive`` for ``dopri5``/``dop853``). The result is
+compiled with numba once per method and layout and cached; it knows nothing else of the
+composition. The composition (plant, observers, controller: :mod:`hgo.engine.composition`)
+comes in at run time as ``S``, the five functions it is called through: ``S[0]`` the
+right-hand side, ``S[1]`` the discrete update, ``S[2]`` the outputs, ``S[3]`` what the
+error metrics read, ``S[4]`` the stiffness the components declare now. Compiled, ``S`` is
+an int64 array of the addresses of their C entry points (numba ``cfunc``), called with the
+arrays' data pointers (``call_void``, ``call_float``); on the pure-Python path (a user
+component numba cannot compile) it is a tuple of the composition's Python functions and
+``ptr`` is the identity.
 
 Time handling (hybrid systems): no step straddles a noise sample instant k*noise_dt
 (the held noise jumps there) or a break point (``breaks``: the sorted instants where the
@@ -65,6 +72,37 @@ import math
 import numpy as np
 
 
+# The composition's five functions, called through ``S`` (module doc): C entry points at
+# the addresses ``S[k]``, taking the arrays' data (``ptr``) in a compiled kernel; the Python
+# functions themselves (``ptr`` the identity) on the pure-Python path.
+@ijit
+def _rhs(S, t, z, d, m, P, w, dz):
+    call_void(S[0], t, (ptr(z), ptr(d), ptr(m), ptr(P), ptr(w), ptr(dz)))
+
+
+@ijit
+def _update(S, t, z, d, m, P, w):
+    if HAS_UPDATE:  # (a constant: a composition without discrete logic calls nothing)
+        call_void(S[1], t, (ptr(z), ptr(d), ptr(m), ptr(P), ptr(w)))
+
+
+@ijit
+def _outputs(S, t, z, d, m, P, w, y, u, xh):
+    call_void(S[2], t, (ptr(z), ptr(d), ptr(m), ptr(P), ptr(w), ptr(y), ptr(u), ptr(xh)))
+
+
+@ijit
+def _errors(S, t, z, d, m, P, w, y, xh):
+    call_void(S[3], t, (ptr(z), ptr(d), ptr(m), ptr(P), ptr(w), ptr(y), ptr(xh)))
+
+
+@ijit
+def _stiffness(S, t, z, d, P):
+    if not HAS_STIFFNESS:  # (a constant: no component declares its stiffness now)
+        return 0.0
+    return call_float(S[4], t, (ptr(z), ptr(d), ptr(P)))
+
+
 @ijit
 def _state_status(z, bound):
     for i in range(NZ):
@@ -97,7 +135,7 @@ def _common_views(work, o):
 
 
 @ijit
-def _start(z, d, m, P, w, y, u, xh, sq, prev, acc, win, noise, bound, t_end, dt_out, t_window,
+def _start(S, z, d, m, P, w, y, u, xh, sq, prev, acc, win, noise, bound, t_end, dt_out, t_window,
            Z, D, Y, M, U, XH):
     """State at t = 0: first noise sample, cleared integrals, discrete update, output 0.
 
@@ -111,9 +149,9 @@ def _start(z, d, m, P, w, y, u, xh, sq, prev, acc, win, noise, bound, t_end, dt_
         m[i] = noise[0, i]
     for j in range(acc.shape[0]):
         acc[j] = 0.0
-    system_update(0.0, z, d, m, P, w)
+    _update(S, 0.0, z, d, m, P, w)
     status = _state_status(z, bound)
-    _emit(np.int64(0), 0.0, z, d, m, P, w, y, u, xh, Z, D, Y, M, U, XH)
+    _emit(S, np.int64(0), 0.0, z, d, m, P, w, y, u, xh, Z, D, Y, M, U, XH)
     if t_win0 <= tol:  # the window is the whole horizon: it starts here
         _point_errors(z, y, xh, sq, acc)
         _trapezoid(0.0, sq, prev, acc, win)
@@ -152,11 +190,11 @@ def _pass_breaks(breaks, k_break, t, tol):
 
 
 @ijit
-def _emit(k, t, z, d, m, P, w, y, u, xh, Z, D, Y, M, U, XH):
+def _emit(S, k, t, z, d, m, P, w, y, u, xh, Z, D, Y, M, U, XH):
     """Output sample k at time t: the signals, recorded when there is a record. Not a
     point of the window metrics: they are made from the integration's own points only,
     so they do not depend on the output grid."""
-    system_outputs(t, z, d, m, P, w, y, u, xh)
+    _outputs(S, t, z, d, m, P, w, y, u, xh)
     if Z.shape[0] > 0:
         for i in range(NZ):
             Z[k, i] = z[i]
@@ -213,16 +251,16 @@ def _trapezoid(t, sq, prev, acc, win):
 
 
 @ijit
-def _step_end(t, z, d, m, P, w, y, xh, sq, prev, acc, win, t_win0, tol):
+def _step_end(S, t, z, d, m, P, w, y, xh, sq, prev, acc, win, t_win0, tol):
     """An RK4 step ends at t: a point of the window metrics (inside the window only)."""
     if t >= t_win0 - tol:
-        system_errors(t, z, d, m, P, w, y, xh)
+        _errors(S, t, z, d, m, P, w, y, xh)
         _point_errors(z, y, xh, sq, acc)
         _trapezoid(t, sq, prev, acc, win)
 
 
 @pjit
-def integrate_ensemble(Z0, D0, PP, noise, noise_dt, BR, t_end, dt_out, h_max, rtol, atol, stab,
+def integrate_ensemble(S, Z0, D0, PP, noise, noise_dt, BR, t_end, dt_out, h_max, rtol, atol, stab,
                        RHO, bound, t_window, ACC, STATUS, T_STOP, N_REC, ZR, DR, YR, MR, UR,
                        XHR, SR, ctl):
     """Integrate many runs in parallel (one per row of Z0, D0, PP, noise, BR: each member's
@@ -234,7 +272,7 @@ def integrate_ensemble(Z0, D0, PP, noise, noise_dt, BR, t_end, dt_out, h_max, rt
     for i in prange(n_members):
         z = Z0[i].copy()
         d = D0[i].copy()
-        st, n_rec, t_stop = integrate(z, d, PP[i], noise[i], noise_dt, BR[i], t_end, dt_out,
+        st, n_rec, t_stop = integrate(S, z, d, PP[i], noise[i], noise_dt, BR[i], t_end, dt_out,
                                       h_max, rtol, atol, stab, RHO[i], bound, t_window,
                                       no_times, ZR[i], DR[i], YR[i], MR[i], UR[i], XHR[i],
                                       ACC[i], SR, ctl)
@@ -245,26 +283,19 @@ def integrate_ensemble(Z0, D0, PP, noise, noise_dt, BR, t_end, dt_out, h_max, rt
 
 # --- section: rk4 ---
 @ijit
-def _rk4_step(t, h, z, d, m, P, w, k1, k2, k3, k4, zt, t_lim):
-    """One RK4 step; the last stage at min(t + h, t_lim) (t_lim: below a break point)."""
-    n = NZ  # a constant of the header: loops unrolled
-    system_rhs(t, z, d, m, P, w, k1)
-    for i in range(n):
-        zt[i] = z[i] + 0.5 * h * k1[i]
-    system_rhs(t + 0.5 * h, zt, d, m, P, w, k2)
-    for i in range(n):
-        zt[i] = z[i] + 0.5 * h * k2[i]
-    system_rhs(t + 0.5 * h, zt, d, m, P, w, k3)
-    for i in range(n):
-        zt[i] = z[i] + h * k3[i]
-    system_rhs(min(t + h, t_lim), zt, d, m, P, w, k4)
-    h6 = h / 6.0
-    for i in range(n):
-        z[i] += h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
+def _rk4_step(S, t, h, t_lim, t_new, z, d, m, P, w, k1, k2, k3, k4, zt):
+    """One RK4 step from (t, z), its last stage at min(t + h, t_lim) (t_lim: below a break
+    point), then the discrete update at t_new; returns the stiffness the components declare
+    after it. One call of the composition's entry point ``S[5]`` (its RK4 step, compiled
+    with its right-hand side inlined): RK4's steps are many and short, a call through an
+    address for each stage cost A (the switched DC motor) ~40 % of its run."""
+    return call_float(S[5], (t, h, t_lim, t_new),
+                      (ptr(z), ptr(d), ptr(m), ptr(P), ptr(w), ptr(k1), ptr(k2), ptr(k3),
+                       ptr(k4), ptr(zt)))
 
 
 @jit
-def integrate(z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol, stab,
+def integrate(S, z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol, stab,
               rho_const, bound, t_window, T, Z, D, Y, M, U, XH, acc, SR, ctl):
     """Integrate one run (RK4). Returns (status, number of output samples, stop time).
 
@@ -286,7 +317,7 @@ def integrate(z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol
     n_noise = noise.shape[0]
     t = 0.0
     k_noise = 0
-    status, n_out, tol, t_win0 = _start(z, d, m, P, w, y, u, xh, sq, prev, acc, win, noise,
+    status, n_out, tol, t_win0 = _start(S, z, d, m, P, w, y, u, xh, sq, prev, acc, win, noise,
                                         bound, t_end, dt_out, t_window, Z, D, Y, M, U, XH)
     _stamp(T, 0, dt_out)
     if status != 0:
@@ -313,21 +344,22 @@ def integrate(z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol
             n_sub = 0  # substeps left in this segment, planned with the stiffness rho_plan
             rho_plan = -1.0
             h = 0.0
+            rho_now = _stiffness(S, t, z, d, P)  # (then returned by each step, after it)
             while t_next - t > tol:
-                rho = max(rho_const, system_stiffness(t, z, d, P))
+                rho = max(rho_const, rho_now)
                 if n_sub <= 0 or rho != rho_plan:  # (re)plan equal substeps to t_next
                     cap = h_max if rho <= 0.0 else min(h_max, stab / rho)
                     n_sub = max(1, math.ceil((t_next - t) / cap - 1e-9))
                     h = (t_next - t) / n_sub
                     rho_plan = rho
-                _rk4_step(t, h, z, d, m, P, w, k1, k2, k3, k4, zt, t_lim)
                 n_sub -= 1
-                t = t_next if n_sub <= 0 else t + h
-                system_update(t, z, d, m, P, w)
+                t_new = t_next if n_sub <= 0 else t + h
+                rho_now = _rk4_step(S, t, h, t_lim, t_new, z, d, m, P, w, k1, k2, k3, k4, zt)
+                t = t_new
                 status = _state_status(z, bound)
                 if status != 0:
                     return status, k_out, t
-                _step_end(t, z, d, m, P, w, y, xh, sq, prev, acc, win, t_win0, tol)
+                _step_end(S, t, z, d, m, P, w, y, xh, sq, prev, acc, win, t_win0, tol)
                 n_steps += 1
                 if n_steps > max_steps:
                     return 5, k_out, t
@@ -344,7 +376,7 @@ def integrate(z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol
                     m[i] = noise[idx, i]
             if t_out <= t + tol:
                 break
-        _emit(k_out, t, z, d, m, P, w, y, u, xh, Z, D, Y, M, U, XH)
+        _emit(S, k_out, t, z, d, m, P, w, y, u, xh, Z, D, Y, M, U, XH)
         _stamp(T, k_out, dt_out)
     return 0, n_out, t
 
@@ -354,7 +386,7 @@ def integrate(z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol
 # (N_K stages rows, N_F dense-output rows, FSAL_STAGE, ERR_EXP) and its functions
 # _trial, _dense_prep, _dense_eval come before this section (hgo.engine.tableau).
 @ijit
-def _initial_step(t, z, d, m, P, w, k1, k2, zt, rtol, atol, h_max, t_lim):
+def _initial_step(S, t, z, d, m, P, w, k1, k2, zt, rtol, atol, h_max, t_lim):
     """Hairer's starting step (Solving ODEs I, II.4) from f0 = k1; uses 1 evaluation.
 
     The RMS norms are written out here (not a helper): one function less to compile."""
@@ -370,7 +402,7 @@ def _initial_step(t, z, d, m, P, w, k1, k2, zt, rtol, atol, h_max, t_lim):
     h0 = min(h0, h_max)
     for i in range(NZ):
         zt[i] = z[i] + h0 * k1[i]
-    system_rhs(min(t + h0, t_lim), zt, d, m, P, w, k2)
+    _rhs(S, min(t + h0, t_lim), zt, d, m, P, w, k2)
     d2 = 0.0
     for i in range(NZ):
         d2 += ((k2[i] - k1[i]) / (atol + rtol * abs(z[i]))) ** 2
@@ -423,7 +455,7 @@ def _step_of(SR, n_steps, t, k):
 
 
 @jit
-def dense_signals(SR, n_steps, ts, P, Z, D, Y, M, U, XH):
+def dense_signals(S, SR, n_steps, ts, P, Z, D, Y, M, U, XH):
     """Every signal at the instants ``ts`` (within the run) from the step record: the step
     containing t (the later one at a step end: right-continuous), its continuous extension
     at t, the outputs with the step's discrete state and noise sample."""
@@ -450,7 +482,7 @@ def dense_signals(SR, n_steps, ts, P, Z, D, Y, M, U, XH):
         for i in range(NY):
             m[i] = SR[k, 2 + nz + nf + nd + i]
         _dense_eval((ts[j] - SR[k, 0]) / SR[k, 1], z, F, zo)
-        _emit(np.int64(j), ts[j], zo, d, m, P, w, y, u, xh, Z, D, Y, M, U, XH)
+        _emit(S, np.int64(j), ts[j], zo, d, m, P, w, y, u, xh, Z, D, Y, M, U, XH)
 
 
 # 3-point Gauss-Legendre on [0, 1]: exact for polynomials of degree 5
@@ -459,7 +491,7 @@ GAUSS_WEIGHTS = np.array([5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0])
 
 
 @ijit
-def _window_step(t, h, a, b, z, d, m, P, w, y, xh, sq, acc, F, zo):
+def _window_step(S, t, h, a, b, z, d, m, P, w, y, xh, sq, acc, F, zo):
     """The accepted step [t, t + h] on its part [a, b] inside the metrics window: the
     squared errors integrated by 3-point Gauss-Legendre on the step's continuous extension
     (``F``; its order is the method's), their maxima at the nodes, the length ``b - a``.
@@ -467,7 +499,7 @@ def _window_step(t, h, a, b, z, d, m, P, w, y, xh, sq, acc, F, zo):
     for q in range(3):
         tq = a + (b - a) * GAUSS_NODES[q]
         _dense_eval((tq - t) / h, z, F, zo)
-        system_errors(tq, zo, d, m, P, w, y, xh)
+        _errors(S, tq, zo, d, m, P, w, y, xh)
         _point_errors(zo, y, xh, sq, acc)
         for j in range(NXH + NOBS):
             acc[j] += (b - a) * GAUSS_WEIGHTS[q] * sq[j]
@@ -475,7 +507,7 @@ def _window_step(t, h, a, b, z, d, m, P, w, y, xh, sq, acc, F, zo):
 
 
 @jit
-def integrate(z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol, stab,
+def integrate(S, z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol, stab,
               rho_const, bound, t_window, T, Z, D, Y, M, U, XH, acc, SR, ctl):
     """Integrate one run (adaptive). Returns (status, number of output samples, stop time).
 
@@ -501,7 +533,7 @@ def integrate(z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol
     n_noise = noise.shape[0]
     t = 0.0
     k_noise = 0
-    status, n_out, tol, t_win0 = _start(z, d, m, P, w, y, u, xh, sq, prev, acc, win, noise,
+    status, n_out, tol, t_win0 = _start(S, z, d, m, P, w, y, u, xh, sq, prev, acc, win, noise,
                                         bound, t_end, dt_out, t_window, Z, D, Y, M, U, XH)
     _stamp(T, 0, dt_out)
     if status != 0:
@@ -510,9 +542,9 @@ def integrate(z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol
     k_break = _pass_breaks(breaks, 0, t, tol)
     n_steps = 0  # trials, accepted or rejected
     max_steps = ctl[1]
-    system_rhs(t, z, d, m, P, w, k1)
+    _rhs(S, t, z, d, m, P, w, k1)
     t_seg, t_lim = _next_event(noise_dt, breaks, k_break, t_end, tol)
-    h = _initial_step(t, z, d, m, P, w, k1, zo, zt, rtol, atol, h_max, t_lim)
+    h = _initial_step(S, t, z, d, m, P, w, k1, zo, zt, rtol, atol, h_max, t_lim)
     fsal = True  # k1 holds f(t, z) for the current noise sample, discrete state and piece
     retried = False  # the step being tried follows a rejection
     nonfinite = False  # the last trial's error norm was NaN/inf
@@ -521,10 +553,10 @@ def integrate(z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol
         t_seg, t_lim = _next_event((k_noise + 1) * noise_dt, breaks, k_break, t_end, tol)
         while True:  # steps inside [t, t_seg]
             if not fsal:
-                system_rhs(t, z, d, m, P, w, k1)
+                _rhs(S, t, z, d, m, P, w, k1)
                 fsal = True
             if restart:
-                h = _initial_step(t, z, d, m, P, w, k1, zo, zt, rtol, atol, h_max, t_lim)
+                h = _initial_step(S, t, z, d, m, P, w, k1, zo, zt, rtol, atol, h_max, t_lim)
                 restart = False
             hh = min(h, h_max)
             # a step within tol of the segment end takes the rest of the segment, unless the
@@ -540,7 +572,7 @@ def integrate(z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol
                 return 5, k_out, t
             if ctl[0] != 0:
                 return 6, k_out, t
-            err = _trial(t, hh, z, d, m, P, w, K, zt, rtol, atol, t_lim)
+            err = _trial(S, t, hh, z, d, m, P, w, K, zt, rtol, atol, t_lim)
             nonfinite = not math.isfinite(err)  # the underflow it leads to has this cause
             if not err <= 1.0:  # rejected (or non-finite)
                 h = hh * (0.2 if nonfinite else max(0.2, 0.9 * err ** ERR_EXP))
@@ -549,13 +581,13 @@ def integrate(z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol
             t_new = t_seg if last else t + hh
             prepared = False
             if SR.shape[0] > 0:  # the step record (module doc)
-                _dense_prep(t, hh, z, zt, d, m, P, w, K, F, zo)
+                _dense_prep(S, t, hh, z, zt, d, m, P, w, K, F, zo)
                 prepared = True
                 _record_step(SR, ctl, t, hh, z, F, d, m)
             if t_new > t_win0 + tol:  # the step overlaps the metrics window
-                _dense_prep(t, hh, z, zt, d, m, P, w, K, F, zo)
+                _dense_prep(S, t, hh, z, zt, d, m, P, w, K, F, zo)
                 prepared = True
-                _window_step(t, hh, max(t, t_win0), t_new, z, d, m, P, w, y, xh, sq, acc,
+                _window_step(S, t, hh, max(t, t_win0), t_new, z, d, m, P, w, y, xh, sq, acc,
                              F, zo)
             # outputs inside the step, at their instants (the continuous extension); those
             # within tol of the event that ends the segment are taken after the event
@@ -564,10 +596,10 @@ def integrate(z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol
                 t_o = k_out * dt_out
                 if record:
                     if not prepared:
-                        _dense_prep(t, hh, z, zt, d, m, P, w, K, F, zo)
+                        _dense_prep(S, t, hh, z, zt, d, m, P, w, K, F, zo)
                         prepared = True
                     _dense_eval((t_o - t) / hh, z, F, zo)
-                    _emit(k_out, t_o, zo, d, m, P, w, y, u, xh, Z, D, Y, M, U, XH)
+                    _emit(S, k_out, t_o, zo, d, m, P, w, y, u, xh, Z, D, Y, M, U, XH)
                     _stamp(T, k_out, dt_out)
                 k_out += 1
             for i in range(nz):
@@ -577,7 +609,7 @@ def integrate(z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol
             if HAS_UPDATE:  # (a constant of the generated header: no discrete logic, no code)
                 for i in range(nd):
                     dsave[i] = d[i]
-                system_update(t, z, d, m, P, w)
+                _update(S, t, z, d, m, P, w)
                 for i in range(nz):  # the discrete update changed z or d: k1 is stale
                     if z[i] != zt[i]:
                         fsal = False
@@ -588,7 +620,7 @@ def integrate(z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol
             if status != 0:
                 return status, k_out, t
             if t >= t_win0 - tol:  # the step end (after its update) for the maximum norm
-                system_errors(t, z, d, m, P, w, y, xh)
+                _errors(S, t, z, d, m, P, w, y, xh)
                 _point_errors(z, y, xh, sq, acc)
             fac = 10.0 if err == 0.0 else min(10.0, max(0.2, 0.9 * err ** ERR_EXP))
             if retried:  # as scipy: no growth right after a rejection (B: 4 % fewer trials)
@@ -610,7 +642,7 @@ def integrate(z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, atol
                 fsal = False
                 restart = True
         while k_out < n_out and k_out * dt_out <= t + tol:  # at the event, after it
-            _emit(k_out, t, z, d, m, P, w, y, u, xh, Z, D, Y, M, U, XH)
+            _emit(S, k_out, t, z, d, m, P, w, y, u, xh, Z, D, Y, M, U, XH)
             _stamp(T, k_out, dt_out)
             k_out += 1
     return 0, n_out, t

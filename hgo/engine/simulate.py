@@ -37,13 +37,13 @@ import numpy as np
 
 from hgo.core.errors import ConfigError
 from hgo.engine.codegen import (
-    compiled_first,
+    Kernel,
     damaged_cache_file,
     forget_kernel,
     load_kernel,
-    reads_estimate,
     remove_cache_entry,
 )
+from hgo.engine.composition import reads_estimate
 from hgo.engine.interrupt import interruptible
 from hgo.engine.system import System
 
@@ -240,7 +240,7 @@ def _kernel(system: System, method: str, noisy: bool = True):
 
 def has_noise(samples: np.ndarray) -> bool:
     """Whether any measurement noise sample is non-zero (else the noiseless kernel runs:
-    :func:`hgo.engine.codegen.kernel_source`)."""
+    :func:`hgo.engine.codegen.composition_source`)."""
     return bool(np.any(samples))
 
 
@@ -254,7 +254,7 @@ def _call(system: System, method: str, fname: str, *args, noisy: bool = True):
         warnings.warn(f"hgo: numba could not compile {numba_failure(str(err))}; running on "
                       "the pure-Python path (slow).", RuntimeWarning, stacklevel=3)
         module = load_kernel(system, compiled=False, method=method, noisy=noisy)
-        return interruptible(getattr(module, fname), args, args[-1])
+        return interruptible(module.function(fname), args, args[-1])
 
 
 def _call_repairing_cache(system: System, method: str, noisy: bool, module, fname: str,
@@ -280,10 +280,10 @@ def _call_repairing_cache(system: System, method: str, noisy: bool, module, fnam
     return interruptible(_first_compiled(module, fname), args, args[-1])
 
 
-def _first_compiled(module, fname: str):
-    """The kernel function, compiled under its cache entry's lock on its first call
-    (:func:`hgo.engine.codegen.compiled_first`): no two processes compile it at once."""
-    return compiled_first(getattr(module, fname), module.__file__)
+def _first_compiled(kernel: Kernel, fname: str):
+    """The kernel function, compiled under its cache entries' locks on its first call
+    (:meth:`hgo.engine.codegen.Kernel.function`): no two processes compile it at once."""
+    return kernel.function(fname)
 
 
 _ANSI = re.compile(r"\x1b\[[0-9;]*m")

@@ -1,0 +1,284 @@
+"""The composition of a :class:`~hgo.engine.system.System` as module text: what is compiled per
+experiment.
+
+The module holds each component's parameter record (read from the flat parameter vector
+``P`` at constant offsets), the composed functions the integrators call (``system_rhs``,
+``system_update``, ``system_outputs``, ``system_errors``, ``system_stiffness``: the
+components' functions on their slices of the flat vectors) and, for the compiled path,
+their C entry points ``c_rhs`` .. ``c_stiffness``: the same functions taking the arrays'
+data pointers (lengths are constants of the module), compiled by :mod:`hgo.engine.codegen`
+as numba ``cfunc`` and handed to the integrator (:mod:`hgo.engine.kernel_template`) as
+function pointers. The integrator is compiled apart, once per method and layout.
+"""
+
+from __future__ import annotations
+
+import dis
+import math
+import re
+
+from hgo.core.components import no_update
+from hgo.engine.system import System
+
+ENTRY_POINTS = ("rhs", "update", "outputs", "errors", "stiffness", "rk4")
+"""The composition's functions in the order of the integrator's ``S`` (``rk4``: for the RK4
+integrator only)."""
+
+
+def _components(system: System) -> list:
+    """Plant, observers and controller, in the order of the parameter slices."""
+    return [system.plant, *system.observers] + ([system.controller] if system.controller
+                                                else [])
+
+
+def _functions(system: System) -> tuple[dict[str, object], dict]:
+    """Injected name -> component function (one per distinct function), and the call names.
+
+    Functions among a component's constants (a user's phi, say) are injected too; the
+    ``"const"`` entry maps (component index, constant name) to their injected names."""
+    named: dict[str, object] = {}
+
+    def add(prefix: str, fn: object) -> str:
+        for name, known in named.items():
+            if known is fn:
+                return name
+        name = f"{prefix}_{len(named)}"
+        named[name] = fn
+        return name
+
+    plant = system.plant
+    calls = {
+        "plant_f": add("c_plant_f", plant.f),
+        "plant_h": add("c_plant_h", plant.h),
+        "obs": [
+            (add("c_obs_f", o.f), add("c_obs_update", o.update), add("c_obs_est", o.estimate))
+            for o in system.observers
+        ],
+        "stiff": [None if getattr(o, "stiffness", None) is None
+                  else add("c_obs_stiff", o.stiffness) for o in system.observers],
+        "ctrl": None if system.controller is None else add("c_ctrl_u", system.controller.u),
+        "const": {(k, name): add("c_const", value)
+                  for k, comp in enumerate(_components(system)) if comp.params is not None
+                  for name, value in comp.params.constants.items() if callable(value)},
+    }
+    return named, calls
+
+
+def _v(arr: str, a: int, b: int) -> str:
+    """A borrowed view ``arr[a:b]`` (see :mod:`hgo.engine.jit`)."""
+    return f"view({arr}, {a}, {b})"
+
+
+def _literal(value: object) -> str:
+    """A constant as kernel text (floats exactly, inf and nan through math)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return "math.nan" if math.isnan(value) else f"{'-' if value < 0 else ''}math.inf"
+    if isinstance(value, tuple):
+        return "(" + "".join(f"{_literal(v)}, " for v in value) + ")"
+    return repr(value)
+
+
+def _records(system: System, names: dict) -> tuple[list[str], list[str], dict[str, str]]:
+    """The record of each component with named parameters (:class:`hgo.core.components.Params`):
+    its class; per component, the argument its functions get (the record's local name
+    ``p<k>``, or the positional view ``P[a:b]``); and each record's binding, read from the
+    flat vector P at constant offsets, with the constants as literals."""
+    lines, args, bindings = [], [], {}
+    for k, (comp, (a, b)) in enumerate(zip(_components(system), system.p_slices,
+                                           strict=True)):
+        spec = comp.params
+        if spec is None:
+            args.append(_v("P", a, b))
+            continue
+        fields, values = [], []
+        for name, shape, o in zip(spec.names, spec.shapes, spec.offsets, strict=True):
+            fields.append(name)
+            if not shape:
+                values.append(f"P[{a + o}]")
+            elif len(shape) == 1:
+                values.append(_v("P", a + o, a + o + shape[0]))
+            elif len(shape) == 2:
+                values.append(f"view2(P, {a + o}, {shape[0]}, {shape[1]})")
+            else:
+                raise ValueError(f"{comp.name}: parameter {name} has {len(shape)} dimensions; "
+                                 "at most 2 are supported")
+        for name, value in spec.constants.items():
+            fields.append(name)
+            if name == "scratch":  # scratch space on the caller's stack (hgo.engine.jit)
+                values.append(f"stack({value})")
+                continue
+            values.append(names["const"][(k, name)] if callable(value) else _literal(value))
+        lines += [f"# the parameters of {comp.name} by name",
+                  f"_P{k} = namedtuple('_P{k}', {fields!r})", ""]
+        bindings[f"p{k}"] = (f"    p{k} = _P{k}(" + ", ".join(
+            f"{name}={value}" for name, value in zip(fields, values, strict=True)) + ")")
+        args.append(f"p{k}")
+    return lines, args, bindings
+
+
+# The composed functions, each written once as its body and emitted twice: on arrays
+# (``system_<name>``, the pure-Python path) and as the C entry point ``c_<name>`` on the
+# data pointers the integrator passes (``carray``: no copy, no reference count; lengths
+# from the header). Every body is flat: the records it uses bound as locals at its top,
+# the measurement written out; only the components' own functions are called (and, in
+# the RK4 step, the composed right-hand side, update and stiffness, inlined).
+ARRAYS = {"rhs": "z d m P w dz", "update": "z d m P w", "outputs": "z d m P w y u xh",
+          "errors": "z d m P w y xh", "stiffness": "z d P", "rk4": "z d m P w k1 k2 k3 k4 zt"}
+SCALARS = {"rk4": "t, h, t_lim, t_new"}  # (the others: t)
+LENGTHS = {"z": "NZ", "d": "ND", "m": "NY", "P": "NP", "w": "NW", "dz": "NZ", "y": "NY",
+           "u": "NU", "xh": "NXH", "k1": "NZ", "k2": "NZ", "k3": "NZ", "k4": "NZ", "zt": "NZ"}
+# called by the RK4 step (compiled into it): the others are only entry points
+CALLED = ("rhs", "update", "stiffness")
+# One RK4 step from (t, z), then the discrete update at t_new; the stiffness after it
+RK4 = ["    system_rhs(t, z, d, m, P, w, k1)",
+       "    for i in range(NZ):", "        zt[i] = z[i] + 0.5 * h * k1[i]",
+       "    system_rhs(t + 0.5 * h, zt, d, m, P, w, k2)",
+       "    for i in range(NZ):", "        zt[i] = z[i] + 0.5 * h * k2[i]",
+       "    system_rhs(t + 0.5 * h, zt, d, m, P, w, k3)",
+       "    for i in range(NZ):", "        zt[i] = z[i] + h * k3[i]",
+       "    system_rhs(min(t + h, t_lim), zt, d, m, P, w, k4)",
+       "    h6 = h / 6.0",
+       "    for i in range(NZ):", "        z[i] += h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])",
+       "    system_update(t_new, z, d, m, P, w)",
+       "    return system_stiffness(t_new, z, d, P)"]
+
+
+def _function(name: str, body: list[str], bindings: dict[str, str]) -> list[str]:
+    """``system_<name>`` and ``c_<name>`` with ``body``, after the records it uses."""
+    text = "\n".join(body)
+    used = [line for local, line in bindings.items() if re.search(rf"\b{local}\b", text)]
+    arrays, scalars = ARRAYS[name].split(), SCALARS.get(name, "t")
+    return ["", "", *(["@ijit"] if name in CALLED else []),
+            f"def system_{name}({scalars}, {', '.join(arrays)}):", *used, *body,
+            "", "", f"def c_{name}({scalars}, {', '.join(a + '_ptr' for a in arrays)}):",
+            *[f"    {a} = carray({a}_ptr, {LENGTHS[a]})" for a in arrays], *used, *body]
+
+
+def composition_text(system: System, names: dict, noisy: bool) -> str:
+    """The composition's module text (module doc): records, sizes, the five functions."""
+    nx, ny, nu = system.plant.nx, len(system.plant.output_names), len(system.plant.input_names)
+    zs, ds, xs = system.z_slices, system.d_slices, system.xh_slices
+    ctrl_obs = system.controlled_observer()
+    y, u = _v("w", 0, ny), _v("w", ny, ny + nu)
+    record_lines, p_args, bindings = _records(system, names)
+
+    def obs_args(k: int) -> tuple[str, str, str]:
+        return _v("z", *zs[k + 1]), _v("d", *ds[k]), p_args[k + 1]
+
+    def measure(with_u: bool) -> list[str]:
+        """y = h(x) + m into w (a run without noise: y is h(x) itself, so the compiler can
+        share what the plant and an observer compute of it, e.g. sin x1 and sin y); with
+        the controller's input u when ``with_u``."""
+        lines = [f"    {names['plant_h']}(t, {_v('z', 0, nx)}, {p_args[0]}, {y})",
+                 *([f"    for i in range({ny}):", "        w[i] += m[i]"] if noisy else
+                   ["    # noiseless: y = h(x)"])]
+        if with_u and ctrl_obs is not None:
+            zk, dk, pk = obs_args(ctrl_obs)
+            xc = _v("w", ny + nu, work_length(system))
+            if reads_estimate(system):  # (an open-loop input ignores the estimate)
+                lines.append(f"    {names['obs'][ctrl_obs][2]}(t, {zk}, {dk}, {pk}, {xc})")
+            lines.append(f"    {names['ctrl']}(t, {xc}, {y}, {p_args[-1]}, {u})")
+        return lines
+
+    updates = [o.update for o in system.observers]
+    # the update needs u only if some update reads it (u may cost a controller evaluation)
+    update_u = ctrl_obs is not None and any(_reads(fn, 4) for fn in updates
+                                            if fn is not no_update)
+    rhs = [*measure(True),
+           f"    {names['plant_f']}(t, {_v('z', 0, nx)}, {u}, {p_args[0]}, "
+           f"{_v('dz', 0, nx)})"]
+    for k, (f, _, _) in enumerate(names["obs"]):
+        zk, dk, pk = obs_args(k)
+        rhs.append(f"    {f}(t, {zk}, {dk}, {y}, {u}, {pk}, {_v('dz', *zs[k + 1])})")
+    update = ["    return"]  # no discrete logic: nothing to evaluate between steps
+    if has_discrete_update(system):
+        update = measure(update_u)
+        for k, (_, upd, _) in enumerate(names["obs"]):
+            if updates[k] is not no_update:
+                zk, dk, pk = obs_args(k)
+                update.append(f"    {upd}(t, {zk}, {dk}, {y}, {u}, {pk})")
+    estimates = [f"    {est}(t, {', '.join(obs_args(k)[:2])}, {p_args[k + 1]}, "
+                 f"{_v('xh', *xs[k])})" for k, (_, _, est) in enumerate(names["obs"])]
+    outputs = [*measure(True), f"    for i in range({ny}):", "        y[i] = w[i]",
+               f"    for i in range({nu}):", f"        u[i] = w[{ny} + i]", *estimates]
+    # the error metrics read y and x^ only: their points cost no controller evaluation
+    errors = [*measure(False), f"    for i in range({ny}):", "        y[i] = w[i]",
+              *estimates]
+    stiffness = ["    rho = 0.0"]  # the largest spectral radius declared *now* by hooks
+    for k, fn in enumerate(names["stiff"]):
+        if fn is not None:
+            zk, dk, pk = obs_args(k)
+            stiffness.append(f"    rho = max(rho, {fn}(t, {zk}, {dk}, {pk}))")
+    stiffness.append("    return rho")
+    lines = ["import math", "from collections import namedtuple", "", "import numpy as np",
+             "", *record_lines, "",
+             "# the lengths of the arrays the entry points get as pointers",
+             f"NZ = {system.nz}", f"ND = {system.nd}", f"NY = {ny}", f"NU = {nu}",
+             f"NP = {system.p_slices[-1][1]}", f"NXH = {system.nxh}",
+             f"NW = {work_length(system)}"]
+    for name, body in zip(ENTRY_POINTS, (rhs, update, outputs, errors, stiffness, RK4),
+                          strict=True):
+        lines += _function(name, body, bindings)
+    return "\n".join(lines) + "\n"
+
+
+def has_discrete_update(system: System) -> bool:
+    """Whether some observer has discrete logic (an ``update``)."""
+    return any(o.update is not no_update for o in system.observers)
+
+
+def work_length(system: System) -> int:
+    """Length of the work vector ``w`` the composed functions share with the integrator:
+    y, u and the estimate the controller reads."""
+    plant, ctrl_obs = system.plant, system.controlled_observer()
+    n_xc = 0 if ctrl_obs is None else len(system.observers[ctrl_obs].estimated_states)
+    return len(plant.output_names) + len(plant.input_names) + n_xc
+
+
+def integrator_constants(system: System) -> str:
+    """What an integrator is specialised on (its header, :mod:`hgo.engine.kernel_template`):
+    the sizes, the maps of the error metrics, whether there is discrete logic and whether
+    a component declares its stiffness (RK4's step cap)."""
+    plant = system.plant
+    return "\n".join([
+        f"HAS_UPDATE = {has_discrete_update(system)}",
+        "HAS_STIFFNESS = "
+        f"{any(getattr(o, 'stiffness', None) is not None for o in system.observers)}",
+        f"NZ = {system.nz}",
+        f"NY = {len(plant.output_names)}",
+        f"NU = {len(plant.input_names)}",
+        f"NXH = {system.nxh}",
+        f"NOBS = {len(system.observers)}",
+        f"NW = {work_length(system)}",
+        f"EST_MAP = np.array({system.estimate_map().tolist()}, dtype=np.int64)",
+        f"YHAT_COL = np.array({system.yhat_columns().tolist()}, dtype=np.int64)",
+        f"OBS_OF = np.array({system.xh_observer().tolist()}, dtype=np.int64)",
+    ]) + "\n\n"
+
+
+
+def reads_estimate(system: System) -> bool:
+    """Whether the controller's input may depend on its observer's estimate (the
+    argument ``xhat`` of ``u``): False for no controller or an open-loop input."""
+    return system.controller is not None and _reads(system.controller.u, 1)
+
+
+def _reads(fn: object, index: int) -> bool:
+    """Whether Python function ``fn`` may read its positional argument ``index``.
+
+    Conservative: True unless the bytecode provably never touches that argument (used to
+    skip computing signals, e.g. a controller's input, that a component ignores).
+    """
+    code = getattr(fn, "__code__", None)
+    if code is None or index >= code.co_argcount:
+        return True
+    name = code.co_varnames[index]
+    if name in code.co_cellvars:  # captured by an inner function
+        return True
+    for ins in dis.get_instructions(code):
+        val = ins.argval
+        if val == name or (isinstance(val, tuple) and name in val):
+            return True
+    return False
+
+
