@@ -10,9 +10,9 @@
 
 Medians over ``--reps`` whole-process runs (wall clock). Targets (issue 18): cold <= 60 s,
 warm <= 20 s for all papers on a 2-core machine (issue 27: 40 s and 10 s). Also printed,
-from the last repetition: the kernels the cold run compiled, by integrator (the kernel
-modules in its fresh cache), and the seconds the warm run's figures took (the sum of its
-runs' ``run.json``), two of the floors under those targets. The last line is
+from the last repetition: the integrators (by method) and compositions the cold run
+compiled (the modules in its fresh cache), and the seconds the warm run's figures took
+(the sum of its runs' ``run.json``), two of the floors under those targets. The last line is
 ``reproduce: cold=<s> warm=<s> reused=<s>``.
 """
 
@@ -41,12 +41,14 @@ def timed(out: Path, env: dict[str, str], jobs: int) -> float:
 
 
 def kernels_by_integrator(cache: Path) -> dict[str, int]:
-    """The kernel modules in a kernel cache, counted by the integrator their header names
-    (``# integrator: <method>; ...``)."""
+    """The generated modules in a kernel cache: the integrators, counted by the method their
+    header names (``# integrator: <method>; ...``), and the compositions (issue 41: one
+    integrator per method and layout, one composition per experiment)."""
     counts: collections.Counter[str] = collections.Counter()
-    for path in cache.glob("hgo_kernel_*.py"):
+    for path in cache.glob("hgo_integrator_*.py"):
         line = next(ln for ln in path.read_text().splitlines() if ln.startswith("# integrator:"))
-        counts[line.split(":", 1)[1].split(";")[0].strip()] += 1
+        counts["integrator " + line.split(":", 1)[1].split(";")[0].strip()] += 1
+    counts["composition"] = len(list(cache.glob("hgo_kernel_*.py")))
     return dict(sorted(counts.items()))
 
 
@@ -69,7 +71,7 @@ def bench(reps: int = 3, jobs: int = 2) -> dict[str, float]:
             times["warm"].append(timed(tmp / "warm", env, jobs))
             figures, runs = figure_seconds(tmp / "warm")
             times["reused"].append(timed(tmp / "warm", env, jobs))
-    print(f"the cold run compiled {sum(kernels.values())} kernels ("
+    print("the cold run compiled "
           + ", ".join(f"{k} {n}" for k, n in kernels.items())
           + f"); the warm run's figures took {figures:.1f} s ({runs} runs' run.json)")
     return {k: statistics.median(v) for k, v in times.items()}

@@ -396,10 +396,13 @@ class Kernel:
                                            for name in self.names)
             else:
                 with entry_lock(Path(module.__file__)):
-                    # (kept: the addresses are valid while the cfunc objects live)
-                    self._cfuncs = [_entry_point(getattr(module, f"c_{name}"), name)
-                                    for name in self.names]
-                self._entry_points = np.array([f.address for f in self._cfuncs], np.int64)
+                    cfuncs = [_entry_point(getattr(module, f"c_{name}"), name)
+                              for name in self.names]
+                # the addresses are valid while the cfunc objects (their machine code) live:
+                # for the process, since a step record may call them after a repair has
+                # dropped this kernel (forget_kernel)
+                _ENTRY_POINTS_ALIVE.append(cfuncs)
+                self._entry_points = np.array([f.address for f in cfuncs], np.int64)
         return self._entry_points
 
     def function(self, fname: str):
@@ -491,6 +494,7 @@ def _import(path: Path, compiled: bool, functions: dict | None = None) -> Module
 
 
 _LOADED: dict[tuple, Kernel] = {}
+_ENTRY_POINTS_ALIVE: list[list] = []  # every compiled entry point of this process
 _MODULES: dict[str, ModuleType] = {}  # generated modules imported in this process, by name
 
 
