@@ -412,7 +412,10 @@ class Kernel:
         return functools.partial(fn, self.entry_points())
 
     def __getattr__(self, name: str):
-        # the integrator's functions by name (integrate.stats, _trial, _step_of, ...)
+        # the integrator's functions by name (integrate.stats, _trial, _step_of, ...); not
+        # its own attributes or dunders (copy and pickle look for those before __init__)
+        if name.startswith("__") or name in ("integrator", "composition"):
+            raise AttributeError(name)
         return getattr(self.integrator, name)
 
 
