@@ -68,3 +68,31 @@ def test_compositions_of_one_layout_share_one_compiled_integrator() -> None:
     assert first.composition is not second.composition
     assert len(first.integrator.integrate.signatures) == 1
     assert np.abs(runs[0].z - runs[1].z).max() > 1e-3  # the two laws differ
+
+
+def test_an_announced_cfunc_compile_is_a_numba_compile_event() -> None:
+    """A cfunc compiled through ``codegen._announced`` (as every entry point of a composition
+    is) is announced as numba announces a dispatcher (``numba:compile``),
+    which run.json's compile seconds and the compile progress bar listen to: without it a
+    new composition's compile counted as simulation time (measured: sp_fig1 0.61 s compile
+    + 1.16 s 'simulate' before, 1.38 s + 0.59 s after)."""
+    from numba.core import event
+    from numba.core.ccallback import CFunc
+    from numba.core.sigutils import normalize_signature
+
+    def double(t, x_ptr):
+        x = numba.carray(x_ptr, 1)
+        x[0] = 2.0 * t
+
+    cfunc = CFunc(double, normalize_signature("void(float64, CPointer(float64))"),
+                  locals={}, options={})
+    cfunc._compile_uncached = codegen._announced(cfunc)
+    recorder = event.RecordingListener()
+    with event.install_listener("numba:compile", recorder):
+        cfunc.compile()
+    starts = [ev for _, ev in recorder.buffer if ev.is_start]
+    assert [ev.data["dispatcher"] for ev in starts] == [cfunc]
+    out = np.zeros(1)
+    call = numba.njit(lambda a, t, x: _call_void(a, t, (_data_pointer(x),)))
+    call(np.int64(cfunc.address), 1.5, out)
+    assert out[0] == 3.0

@@ -444,6 +444,7 @@ def _entry_point(fn, name: str):
     # integrator never passes overlapping arrays to one call
     customize = cfunc._compiler._customize_flags
     cfunc._compiler._customize_flags = lambda flags: _set_noalias(customize(flags))
+    cfunc._compile_uncached = _announced(cfunc)
     cfunc.enable_caching()
     try:
         cfunc.compile()
@@ -456,6 +457,24 @@ def _entry_point(fn, name: str):
         cfunc._cache = NullCache()
         cfunc.compile()
     return cfunc
+
+
+def _announced(cfunc):
+    """``cfunc``'s compile (not its load from numba's cache) as a ``numba:compile`` event,
+    as a dispatcher's compile is: what listens to those (the run's compile seconds in
+    ``run.json``, the compile progress bar) sees the composition's compile too, not only
+    the integrator's and the components'."""
+    from numba.core import event
+
+    uncached = cfunc._compile_uncached
+
+    def compile_uncached():
+        data = {"dispatcher": cfunc, "args": cfunc._sig.args,
+                "return_type": cfunc._sig.return_type}
+        with event.trigger_event("numba:compile", data=data):
+            return uncached()
+
+    return compile_uncached
 
 
 def load_kernel(system: System, compiled: bool = True, method: str = "dopri5",
