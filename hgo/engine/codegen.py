@@ -575,7 +575,7 @@ def _decorators(compiled: bool) -> dict[str, object]:
                 "view": view_function(False), "borrow": borrow_function(False),
                 "view2": view2_function(False), "stack": stack_function(False),
                 "ijit": lambda fn: fn, "component_jit": lambda fn: fn,
-                "cjit": lambda fn: fn, "ptr": pointer_function(False),
+                "ptr": pointer_function(False),
                 **c_call_functions(False)}
     import numba
 
@@ -606,9 +606,6 @@ def _decorators(compiled: bool) -> dict[str, object]:
         # single runs bit for bit (checked for B, apa_fig2, moreno_fig1, dhlm_example).
         "ijit": _noalias(numba.njit(**internal, forceinline=True)),
         "component_jit": component,
-        # the parameter records' builders: they name the components' (uncached) functions
-        # among their constants, so they are compiled like them
-        "cjit": component,
         "pjit": _noalias(numba.njit(**opts, parallel=True)),
         "prange": numba.prange,
         "view": view_function(True),
