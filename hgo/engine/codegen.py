@@ -40,11 +40,14 @@ import numpy as np
 
 from hgo.engine import tableau
 from hgo.engine.composition import (
+    ARRAYS,
     ENTRY_POINTS,
+    RETURNS_FLOAT,
     _components,
     _functions,
     composition_text,
     integrator_constants,
+    scalars_of,
 )
 from hgo.engine.jit import (
     borrow_function,
@@ -342,13 +345,17 @@ def compile_unsaved(fn, signature: tuple) -> None:
             if err.errno not in UNWRITABLE:
                 raise
             if not warned:
-                warnings.warn(f"hgo: numba cannot save the compiled kernel into its cache "
-                              f"({os.strerror(err.errno)}); it is compiled for this process "
-                              "only", RuntimeWarning, stacklevel=4)
+                _warn_unsaved(err)
                 warned = True
             if fn.signatures:  # compiled; only the save failed
                 return
     fn.compile(signature)
+
+
+def _warn_unsaved(err: OSError) -> None:
+    warnings.warn(f"hgo: numba cannot save the compiled kernel into its cache "
+                  f"({os.strerror(err.errno)}); it is compiled for this process only",
+                  RuntimeWarning, stacklevel=5)
 
 
 MAX_UNSAVED = 64  # functions (the kernel and its helpers) whose save may fail in one compile
@@ -424,9 +431,8 @@ def _c_signature(name: str):
     the data of the arrays it takes."""
     from numba.core import types
 
-    n_scalars, n_arrays = {"rhs": (1, 6), "update": (1, 5), "outputs": (1, 8), "errors": (1, 7),
-                           "stiffness": (1, 3), "rk4": (4, 10)}[name]
-    result = types.float64 if name in ("stiffness", "rk4") else types.void
+    n_scalars, n_arrays = len(scalars_of(name).split(",")), len(ARRAYS[name].split())
+    result = types.float64 if name in RETURNS_FLOAT else types.void
     return result(*[types.float64] * n_scalars, *[types.CPointer(types.float64)] * n_arrays)
 
 
@@ -451,9 +457,7 @@ def _entry_point(fn, name: str):
     except OSError as err:
         if err.errno not in UNWRITABLE:
             raise
-        warnings.warn(f"hgo: numba cannot save the compiled kernel into its cache "
-                      f"({os.strerror(err.errno)}); it is compiled for this process only",
-                      RuntimeWarning, stacklevel=4)
+        _warn_unsaved(err)
         cfunc._cache = NullCache()
         cfunc.compile()
     return cfunc

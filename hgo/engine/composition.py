@@ -125,6 +125,7 @@ def _records(system: System, names: dict) -> tuple[list[str], list[str], dict[st
 ARRAYS = {"rhs": "z d m P w dz", "update": "z d m P w", "outputs": "z d m P w y u xh",
           "errors": "z d m P w y xh", "stiffness": "z d P", "rk4": "z d m P w k1 k2 k3 k4 zt"}
 SCALARS = {"rk4": "t, h, t_lim, t_new"}  # (the others: t)
+RETURNS_FLOAT = ("stiffness", "rk4")  # (the others return nothing)
 LENGTHS = {"z": "NZ", "d": "ND", "m": "NY", "P": "NP", "w": "NW", "dz": "NZ", "y": "NY",
            "u": "NU", "xh": "NXH", "k1": "NZ", "k2": "NZ", "k3": "NZ", "k4": "NZ", "zt": "NZ"}
 # called by the RK4 step (compiled into it): the others are only entry points
@@ -143,11 +144,16 @@ RK4 = ["    system_rhs(t, z, d, m, P, w, k1)",
        "    return system_stiffness(t_new, z, d, P)"]
 
 
+def scalars_of(name: str) -> str:
+    """The float arguments of entry point ``name`` before its arrays."""
+    return SCALARS.get(name, "t")
+
+
 def _function(name: str, body: list[str], bindings: dict[str, str]) -> list[str]:
     """``system_<name>`` and ``c_<name>`` with ``body``, after the records it uses."""
     text = "\n".join(body)
     used = [line for local, line in bindings.items() if re.search(rf"\b{local}\b", text)]
-    arrays, scalars = ARRAYS[name].split(), SCALARS.get(name, "t")
+    arrays, scalars = ARRAYS[name].split(), scalars_of(name)
     return ["", "", *(["@ijit"] if name in CALLED else []),
             f"def system_{name}({scalars}, {', '.join(arrays)}):", *used, *body,
             "", "", f"def c_{name}({scalars}, {', '.join(a + '_ptr' for a in arrays)}):",

@@ -267,7 +267,7 @@ def _c_call(result):
             from llvmlite import ir
 
             address, values, data = args
-            if n_scalars > 1 or isinstance(signature.args[1], types.UniTuple):
+            if isinstance(signature.args[1], types.UniTuple):
                 values = [builder.extract_value(values, i) for i in range(n_scalars)]
             else:
                 values = [values]

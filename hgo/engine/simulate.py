@@ -37,7 +37,6 @@ import numpy as np
 
 from hgo.core.errors import ConfigError
 from hgo.engine.codegen import (
-    Kernel,
     damaged_cache_file,
     forget_kernel,
     load_kernel,
@@ -190,8 +189,7 @@ class StepRecord:
         sysm = self.system
         t, *rec = _record_arrays(len(ts), (1, sysm.nz, sysm.nd, ny, ny, nu, sysm.nxh))
         if "_signals" not in self.__dict__:  # (loaded once: at() is called many times)
-            self._signals = _first_compiled(_kernel(sysm, self.method, self.noisy),
-                                            "dense_signals")
+            self._signals = _kernel(sysm, self.method, self.noisy).function("dense_signals")
         self._signals(self.rows, len(self.rows), ts, self.P, *rec)
         return Trajectory(ts, *rec, 0, float(ts[-1]) if len(ts) else 0.0,
                           np.full(sysm.n_acc(), np.nan))
@@ -264,7 +262,7 @@ def _call_repairing_cache(system: System, method: str, noisy: bool, module, fnam
     warned = False
     for _ in range(MAX_CACHE_REPAIRS):
         try:
-            return interruptible(_first_compiled(module, fname), args, args[-1])
+            return interruptible(module.function(fname), args, args[-1])
         except CACHE_ERRORS as err:
             damaged = damaged_cache_file(err)
             if damaged is None:
@@ -277,13 +275,7 @@ def _call_repairing_cache(system: System, method: str, noisy: bool, module, fnam
             remove_cache_entry(damaged)
             forget_kernel(module)
             module = _kernel(system, method, noisy)
-    return interruptible(_first_compiled(module, fname), args, args[-1])
-
-
-def _first_compiled(kernel: Kernel, fname: str):
-    """The kernel function, compiled under its cache entries' locks on its first call
-    (:meth:`hgo.engine.codegen.Kernel.function`): no two processes compile it at once."""
-    return kernel.function(fname)
+    return interruptible(module.function(fname), args, args[-1])
 
 
 _ANSI = re.compile(r"\x1b\[[0-9;]*m")
