@@ -11,20 +11,24 @@ figures), in turn:
   time): neither the composition nor its integrator is in the cache; numba's cache of
   hgo's own helpers (next to their modules) is kept, as for a new combination of known
   components;
-* **new**: with a new kernel cache holding only the integrators (``hgo_integrator_*``,
-  the tableau texts and numba's cache of them, copied from the empty run's folder): the
-  composition is new, its integrator known, as after an edit of a plant;
+* **new**: with a new kernel cache holding the integrators (``hgo_integrator_*``, the
+  tableau texts and numba's cache of them) and the compiled components
+  (``components/``, :mod:`hgo.engine.component_cache`), copied from the empty run's
+  folder: the composition is new, its integrator and hgo's components known, as after
+  a change of an experiment's structure (another observer, noise on or off);
+* **new+comp**: as **new** without the components: every component compiles too, as
+  for a plant not met before (the measure of "new" before components were cached);
 * **cached**: the run again with the empty run's folder (everything loaded from it).
 
 Each process reports its CPU seconds (``time.process_time``: all its threads) from just
 before building the experiment to the end of the run, and the seconds numba's compile
 events took inside (``hgo.engine.jit.run_seconds``). A new composition costs
-``new - cached`` CPU, a first use of an integrator ``empty - new`` (medians of ``--reps``
-triples, interleaved across presets). Every line carries the load average: the machine
-is shared.
+``new - cached`` CPU (``new+comp - cached`` with its components), a first use of an
+integrator ``empty - new+comp`` (medians of ``--reps`` rounds, interleaved across
+presets). Every line carries the load average: the machine is shared.
 
-The last line is ``compile_new_composition: <preset>=<CPU s> ...``, the one before it
-``compile_new_integrator: <preset>=<CPU s> ...``.
+The last three lines are ``compile_new_integrator: <preset>=<CPU s> ...``,
+``compile_new_composition_and_components: ...`` and ``compile_new_composition: ...``.
 """
 
 from __future__ import annotations
@@ -70,39 +74,48 @@ def load() -> str:
     return "/".join(f"{x:.1f}" for x in os.getloadavg())
 
 
-def integrators_only(cache: str, target: str) -> None:
+def known_only(cache: str, target: str, components: bool) -> None:
     """Copy the integrators of kernel cache ``cache`` (module texts, tableau texts, numba's
-    cache files of the integrator modules) into the empty folder ``target``."""
+    cache files of the integrator modules) and, if ``components``, its compiled
+    components into the empty folder ``target``."""
     for path in Path(cache).rglob("*"):
-        if path.is_file() and path.name.startswith(("hgo_integrator_", "hgo_tableau_")):
+        component = components and path.relative_to(cache).parts[0] == "components"
+        if path.is_file() and (component or path.name.startswith(("hgo_integrator_",
+                                                                    "hgo_tableau_"))):
             dest = Path(target) / path.relative_to(cache)
             dest.parent.mkdir(parents=True, exist_ok=True)
             shutil.copy2(path, dest)
 
 
-def bench(presets: list[str], reps: int) -> dict[str, tuple[float, float]]:
-    """Median CPU seconds of (new - cached, empty - new), per preset (table lines printed)."""
-    rows: dict[str, list[tuple[dict, dict, dict]]] = {p: [] for p in presets}
-    print("| preset | triple | empty: CPU s (numba's compile events) | new: CPU s (numba) | "
-          "cached: CPU s (numba) | new - cached | empty - new | load 1/5/15 min |")
-    print("|---|---|---|---|---|---|---|---|")
+def bench(presets: list[str], reps: int) -> dict[str, tuple[float, float, float]]:
+    """Median CPU seconds of (new - cached, new+comp - cached, empty - new+comp), per
+    preset (table lines printed)."""
+    rows: dict[str, list[tuple[dict, dict, dict, dict]]] = {p: [] for p in presets}
+    print("| preset | round | empty: CPU s (numba's compile events) | new: CPU s (numba) | "
+          "new+comp: CPU s (numba) | cached: CPU s (numba) | new - cached | "
+          "new+comp - cached | empty - new+comp | load 1/5/15 min |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for k in range(reps):
         for preset in presets:
             with (tempfile.TemporaryDirectory(prefix="hgo-compile-bench-") as cache,
-                  tempfile.TemporaryDirectory(prefix="hgo-compile-bench-") as fresh):
+                  tempfile.TemporaryDirectory(prefix="hgo-compile-bench-") as fresh,
+                  tempfile.TemporaryDirectory(prefix="hgo-compile-bench-") as bare):
                 empty = one_run(preset, cache)
-                integrators_only(cache, fresh)
+                known_only(cache, fresh, components=True)
+                known_only(cache, bare, components=False)
                 new = one_run(preset, fresh)
+                new_comp = one_run(preset, bare)
                 cached = one_run(preset, cache)
-            rows[preset].append((empty, new, cached))
-            print(f"| {preset} | {k + 1} | {empty['cpu']:.2f} ({empty['numba']:.2f}) | "
-                  f"{new['cpu']:.2f} ({new['numba']:.2f}) | "
-                  f"{cached['cpu']:.2f} ({cached['numba']:.2f}) | "
-                  f"{new['cpu'] - cached['cpu']:.2f} | {empty['cpu'] - new['cpu']:.2f} | "
-                  f"{load()} |", flush=True)
-    return {p: (statistics.median(n["cpu"] - c["cpu"] for _, n, c in triples),
-                statistics.median(e["cpu"] - n["cpu"] for e, n, _ in triples))
-            for p, triples in rows.items()}
+            rows[preset].append((empty, new, new_comp, cached))
+            cells = " | ".join(f"{r['cpu']:.2f} ({r['numba']:.2f})"
+                               for r in (empty, new, new_comp, cached))
+            print(f"| {preset} | {k + 1} | {cells} | {new['cpu'] - cached['cpu']:.2f} | "
+                  f"{new_comp['cpu'] - cached['cpu']:.2f} | "
+                  f"{empty['cpu'] - new_comp['cpu']:.2f} | {load()} |", flush=True)
+    return {p: (statistics.median(n["cpu"] - c["cpu"] for _, n, _, c in rounds),
+                statistics.median(nc["cpu"] - c["cpu"] for _, _, nc, c in rounds),
+                statistics.median(e["cpu"] - nc["cpu"] for e, _, nc, _ in rounds))
+            for p, rounds in rows.items()}
 
 
 def main() -> None:
@@ -112,8 +125,10 @@ def main() -> None:
     args = parser.parse_args()
     print(f"# compile of a new composition (CPU s; start load {load()})\n")
     medians = bench([p for p in args.presets.split(",") if p], args.reps)
-    print("\ncompile_new_integrator: " + " ".join(f"{p}={v[1]:.2f}"
+    print("\ncompile_new_integrator: " + " ".join(f"{p}={v[2]:.2f}"
                                                   for p, v in medians.items()))
+    print("compile_new_composition_and_components: " + " ".join(
+        f"{p}={v[1]:.2f}" for p, v in medians.items()))
     print("compile_new_composition: " + " ".join(f"{p}={v[0]:.2f}"
                                                  for p, v in medians.items()))
 

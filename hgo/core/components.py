@@ -52,13 +52,13 @@ import functools
 import itertools
 import math
 import numbers
-from collections import namedtuple
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from hgo.core.errors import ConfigError
+from hgo.core.records import record_class
 
 Constant = int | float | bool | tuple | Callable
 """A compile-time constant of a component: a number, a flag, a tuple of numbers (e.g.
@@ -143,7 +143,7 @@ class Params:
         """All parameters read from ``vector`` once, as a namedtuple (fast attribute
         access for plain-Python loops; the kernel builds the same record)."""
         names = (*self.names, *self.constants)
-        return _record_class(names)(*(self.get(vector, k) for k in names))
+        return record_class(names)(*(self.get(vector, k) for k in names))
 
     def __repr__(self) -> str:
         shapes = ", ".join(f"{n}{list(s) if s else ''}" for n, s in
@@ -174,11 +174,6 @@ class ParamVector(np.ndarray):
 
     def __reduce__(self):  # pickled (sent to a process) as a plain vector + its names
         return (_param_vector, (np.asarray(self), self.spec))
-
-
-@functools.cache
-def _record_class(names: tuple[str, ...]) -> type:
-    return namedtuple("Record", names)
 
 
 def _param_vector(values: np.ndarray, spec: Params | None) -> ParamVector:

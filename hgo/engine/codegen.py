@@ -26,6 +26,7 @@ import hashlib
 import importlib.util
 import inspect
 import os
+import pickle
 import shutil
 import sys
 import tempfile
@@ -131,15 +132,27 @@ def _source_files(fn: object) -> set[str]:
 
 
 def _identity(fn: object) -> str:
-    """Module, name and source hash of a component function (part of the kernel's name)."""
+    """Module, name and source hash of a component function (part of the kernel's name),
+    with a hash of a closure's values; ending in ``@<id>`` where the source does not
+    determine the function (no source file, a closure value pickle cannot write): then
+    the name holds for this process only (:func:`determined`)."""
     digest = hashlib.sha256()
     files = sorted(_source_files(fn))
     for path in files:
         digest.update(Path(path).read_bytes())
-    if not files:
-        digest.update(repr(fn).encode())
+    unique = not files
+    for cell in getattr(fn, "__closure__", None) or ():
+        try:  # two closures of one source differ in their values only
+            digest.update(pickle.dumps(cell.cell_contents))
+        except Exception:  # noqa: BLE001 - anything pickle refuses: this process only
+            unique = True
     name = f"{getattr(fn, '__module__', '?')}.{getattr(fn, '__qualname__', '?')}"
-    return f"# {name} {digest.hexdigest()[:16]}"
+    return f"# {name} {digest.hexdigest()[:16]}" + (f" @{id(fn)}" if unique else "")
+
+
+def determined(identity: str) -> bool:
+    """Whether :func:`_identity` ``identity`` names the same function in every process."""
+    return "@" not in identity
 
 
 def composition_source(system: System, noisy: bool = True) -> tuple[str, dict[str, object]]:
@@ -510,15 +523,44 @@ def _import(path: Path, compiled: bool, functions: dict | None = None) -> Module
     spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
     module.__dict__.update(_decorators(compiled))
-    component = module.__dict__["component_jit"]
     module.__dict__.update({k: _function_constant(fn) if k.startswith("c_const") and compiled
-                            else component(fn) for k, fn in (functions or {}).items()})
+                            else _component(fn, compiled)
+                            for k, fn in (functions or {}).items()})
     sys.modules[name] = module
     spec.loader.exec_module(module)
     _MODULES[name] = module
     return module
 
 
+def _component(fn, compiled: bool):
+    """Component function ``fn`` as the compositions call it: itself (the pure-Python
+    path), or its one dispatcher of this process, cached on disk
+    (:mod:`hgo.engine.component_cache`) for the signatures that can be."""
+    if not compiled:
+        return fn
+    import numba
+
+    from hgo.engine.component_cache import ComponentCache, folder_of
+
+    key = (fn, FASTMATH)
+    if key not in _COMPONENTS:
+        options = _component_options()
+        dispatcher = _noalias(numba.njit(**options))(fn)
+        identity = _identity(fn)
+        if determined(identity):  # (else compiled per process)
+            dispatcher._cache = ComponentCache(
+                fn, folder_of(cache_dir(), identity, _described(options) + " noalias"))
+        _COMPONENTS[key] = dispatcher
+    return _COMPONENTS[key]
+
+
+def _described(options: dict) -> str:
+    """numba options as text, the same in every process (a set's order is not)."""
+    return repr(sorted((k, sorted(v) if isinstance(v, set) else v)
+                       for k, v in options.items()))
+
+
+_COMPONENTS: dict[tuple, object] = {}  # (function, fast-math flags) -> its dispatcher
 _LOADED: dict[tuple, Kernel] = {}
 _ENTRY_POINTS_ALIVE: list[list] = []  # every compiled entry point of this process
 _MODULES: dict[str, ModuleType] = {}  # generated modules imported in this process, by name
@@ -528,14 +570,18 @@ _CONSTANT_FUNCTIONS: dict[tuple, object] = {}
 
 
 def _function_constant(fn: object) -> object:
-    """A function among a component's constants, as the kernel's record holds it: a copy
-    of the Python function registered with numba (``register_jitable``), whose type
-    carries no run-time value. A numba dispatcher in the record would be stored as the
+    """A function among a component's constants, as the kernel's record holds it: a
+    :class:`hgo.engine.jit.KernelFunction` of a copy of the Python function registered
+    with numba (``register_jitable``), whose type carries no run-time value and is named
+    by the function's source (so that a component holding it is found in the on-disk
+    cache by another process). A numba dispatcher in the record would be stored as the
     address of a Python object, which the on-disk cache would carry into the next
     process (measured: a kernel loaded from the cache ran from garbage, then
     ``free(): corrupted unsorted chunks``). A compiled helper (``kernel_helper``) keeps
     its own options (no fast-math); a user's function gets the components' options."""
     from numba.extending import register_jitable
+
+    from hgo.engine.jit import KernelFunction
 
     src = getattr(fn, "py_func", fn)
     options = {"error_model": "numpy"}
@@ -547,7 +593,8 @@ def _function_constant(fn: object) -> object:
                                   src.__defaults__, src.__closure__)
         copy.__qualname__, copy.__module__ = src.__qualname__, src.__module__
         register_jitable(**options)(copy)
-        _CONSTANT_FUNCTIONS[key] = copy
+        _CONSTANT_FUNCTIONS[key] = KernelFunction(
+            f"{_identity(src)[2:]} {_described(options)}", copy)
     return _CONSTANT_FUNCTIONS[key]
 
 
@@ -578,26 +625,16 @@ def _decorators(compiled: bool) -> dict[str, object]:
         return {"jit": lambda fn: fn, "pjit": lambda fn: fn, "prange": range,
                 "view": view_function(False), "borrow": borrow_function(False),
                 "view2": view2_function(False), "stack": stack_function(False),
-                "ijit": lambda fn: fn, "component_jit": lambda fn: fn,
+                "ijit": lambda fn: fn,
                 "ptr": pointer_function(False),
                 **c_call_functions(False)}
     import numba
 
-    # error_model="numpy": a division by zero gives inf/nan (caught as status 1) instead of
-    # raising, and drops a branch from every division of the hot loop.
-    # nogil: while the integration runs, the thread that turns Ctrl-C into its stop flag
-    # (hgo.engine.interrupt) needs the GIL; the kernel holds no Python object, so releasing
-    # it is free.
-    opts = {"cache": True, "error_model": "numpy", "fastmath": set(FASTMATH), "nogil": True}
+    opts = _options()
     # Inlined helpers are never called from Python: they skip the CPython wrapper numba
     # would otherwise compile through LLVM too (measured: ~15 % of a fresh compile of
     # problem B). ``jit`` functions keep theirs.
     internal = {**opts, "no_cpython_wrapper": True}
-    # components, compiled into each new kernel and never cached on their own: numba's
-    # cache key ignores compile options, so an entry written under other options (an
-    # older hgo) would be reused. Measured: problem A's kernel built on such entries
-    # ran 9.5-10.5 ms instead of 5.5 ms. The kernel holding them inlined is cached.
-    component = _noalias(numba.njit(**{**internal, "cache": False}, forceinline=True))
     return {
         "jit": _noalias(numba.njit(**opts)),
         # every function a kernel function calls (helpers, the step functions): inlined
@@ -609,7 +646,6 @@ def _decorators(compiled: bool) -> dict[str, object]:
         # dense_signals); integrate_ensemble calls integrate too, and its members equal
         # single runs bit for bit (checked for B, apa_fig2, moreno_fig1, dhlm_example).
         "ijit": _noalias(numba.njit(**internal, forceinline=True)),
-        "component_jit": component,
         "pjit": _noalias(numba.njit(**opts, parallel=True)),
         "prange": numba.prange,
         "view": view_function(True),
@@ -620,6 +656,25 @@ def _decorators(compiled: bool) -> dict[str, object]:
         **c_call_functions(True),
         "carray": numba.carray,
     }
+
+
+def _options() -> dict:
+    """numba's options of the kernel's functions."""
+    # error_model="numpy": a division by zero gives inf/nan (caught as status 1) instead of
+    # raising, and drops a branch from every division of the hot loop.
+    # nogil: while the integration runs, the thread that turns Ctrl-C into its stop flag
+    # (hgo.engine.interrupt) needs the GIL; the kernel holds no Python object, so releasing
+    # it is free.
+    return {"cache": True, "error_model": "numpy", "fastmath": set(FASTMATH), "nogil": True}
+
+
+def _component_options() -> dict:
+    """numba's options of a component function: inlined into the entry points, no CPython
+    wrapper, cached by :mod:`hgo.engine.component_cache` (not by numba's own locator:
+    numba's cache key ignores compile options, so an entry written under other options,
+    an older hgo's, would be reused. Measured: problem A's kernel built on such entries
+    ran 9.5-10.5 ms instead of 5.5 ms)."""
+    return {**_options(), "no_cpython_wrapper": True, "cache": False, "forceinline": True}
 
 
 def _set_noalias(flags):

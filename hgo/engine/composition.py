@@ -109,7 +109,7 @@ def _records(system: System, names: dict) -> tuple[list[str], list[str], dict[st
                 continue
             values.append(names["const"][(k, name)] if callable(value) else _literal(value))
         lines += [f"# the parameters of {comp.name} by name",
-                  f"_P{k} = namedtuple('_P{k}', {fields!r})", ""]
+                  f"_P{k} = record_class({tuple(fields)!r})", ""]
         bindings[f"p{k}"] = (f"    p{k} = _P{k}(" + ", ".join(
             f"{name}={value}" for name, value in zip(fields, values, strict=True)) + ")")
         args.append(f"p{k}")
@@ -216,8 +216,8 @@ def composition_text(system: System, names: dict, noisy: bool) -> str:
             zk, dk, pk = obs_args(k)
             stiffness.append(f"    rho = max(rho, {fn}(t, {zk}, {dk}, {pk}))")
     stiffness.append("    return rho")
-    lines = ["import math", "from collections import namedtuple", "", "import numpy as np",
-             "", *record_lines, "",
+    lines = ["import math", "", "import numpy as np", "",
+             "from hgo.core.records import record_class", "", *record_lines, "",
              "# the lengths of the arrays the entry points get as pointers",
              f"NZ = {system.nz}", f"ND = {system.nd}", f"NY = {ny}", f"NU = {nu}",
              f"NP = {system.p_slices[-1][1]}", f"NXH = {system.nxh}",

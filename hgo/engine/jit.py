@@ -26,7 +26,15 @@ from pathlib import Path
 import numba
 import numpy as np
 from numba.core import types
-from numba.extending import intrinsic, overload, register_jitable
+from numba.core.datamodel import models
+from numba.core.imputils import lower_constant
+from numba.extending import (
+    intrinsic,
+    overload,
+    register_jitable,
+    register_model,
+    typeof_impl,
+)
 from numba.np import arrayobj
 
 kernel_helper = numba.njit(cache=True, error_model="numpy")
@@ -328,3 +336,62 @@ def run_seconds() -> Iterator[dict[str, float]]:
         yield seconds
     seconds["compile"] = compiling.duration if compiling.done else 0.0
     seconds["simulate"] = time.perf_counter() - start - seconds["compile"]
+
+
+class KernelFunction:
+    """A function among a component's constants (a user's phi), as a compiled record holds
+    it: a value of type :class:`KernelFunctionType`, named by ``key`` (the function's
+    module, name and a hash of its source, closure values and compile options; with ``@``
+    and its id if those do not determine it), that numba calls as ``function`` (a Python
+    function registered with ``register_jitable``).
+
+    Why not the function itself: its numba type (``Function`` of a template class numba
+    makes on the fly) is rebuilt unequal in another process, so no component holding it
+    could be found in the on-disk cache (:mod:`hgo.engine.component_cache`); this type is
+    equal in every process that registers the same ``key``. The value carries nothing at
+    run time (a null pointer): a call is resolved when the component compiles.
+    """
+
+    def __init__(self, key: str, function) -> None:
+        self.key, self.function = key, function
+        _KERNEL_FUNCTIONS[key] = function
+
+
+_KERNEL_FUNCTIONS: dict[str, object] = {}  # key -> the registered function (this process)
+
+
+class KernelFunctionType(types.Callable, types.Opaque):
+    """numba's type of a :class:`KernelFunction`: equal (and pickled) by its key alone."""
+
+    def __init__(self, key: str) -> None:
+        self.function_key = key
+        # the same in another process (see hgo.engine.codegen._identity)
+        self.stable = "@" not in key
+        super().__init__(name=f"KernelFunction({key})")
+
+    def _function_type(self, context):
+        return context.resolve_value_type(_KERNEL_FUNCTIONS[self.function_key])
+
+    def get_call_type(self, context, args, kws):
+        return context.resolve_function_type(self._function_type(context), args, kws)
+
+    def get_call_signatures(self):
+        return [], True
+
+    def get_impl_key(self, sig):
+        from numba.core.registry import cpu_target
+
+        return self._function_type(cpu_target.typing_context).get_impl_key(sig)
+
+
+@typeof_impl.register(KernelFunction)
+def _typeof_kernel_function(value, c):
+    return KernelFunctionType(value.key)
+
+
+register_model(KernelFunctionType)(models.OpaqueModel)
+
+
+@lower_constant(KernelFunctionType)
+def _lower_kernel_function(context, builder, ty, value):
+    return context.get_constant_null(ty)
