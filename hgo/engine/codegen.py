@@ -6,8 +6,9 @@ Two generated modules make a kernel (:class:`Kernel`):
   :mod:`hgo.engine.tableau`, after a header of the layout's sizes): the same text, so the
   same numba cache entry, for every composition of one method and layout; compiled once;
 * the **composition** (:mod:`hgo.engine.composition`): the components' functions on their
-  slices of the flat vectors, compiled per experiment into five C entry points (numba
-  ``cfunc``) whose addresses the integrator gets as its argument ``S``.
+  slices of the flat vectors, compiled per experiment into C entry points (numba
+  ``cfunc``) whose addresses the integrator gets as its argument ``S``; the components'
+  own functions compiled once and cached apart (:mod:`hgo.engine.component_cache`).
 
 Each is written to a cache folder under a name that hashes its text (the composition's
 text also names every component function with a hash of its source files), so numba's
@@ -407,7 +408,7 @@ class Kernel:
         self._entry_points: tuple | np.ndarray | None = None
 
     def entry_points(self) -> tuple | np.ndarray:
-        """``S``: the composition's five functions; compiled (numba ``cfunc``, or loaded
+        """``S``: the composition's entry points; compiled (numba ``cfunc``, or loaded
         from numba's cache) on the first call, under the entry's lock."""
         if self._entry_points is None:
             module = self.composition
@@ -417,13 +418,20 @@ class Kernel:
             else:
                 with entry_lock(Path(module.__file__)):
                     cfuncs = [_entry_point(getattr(module, f"c_{name}"), name)
-                              for name in self.names]
+                              if self._called(name) else None for name in self.names]
                 # the addresses are valid while the cfunc objects (their machine code) live:
                 # for the process, since a step record may call them after a repair has
                 # dropped this kernel (forget_kernel)
                 _ENTRY_POINTS_ALIVE.append(cfuncs)
-                self._entry_points = np.array([f.address for f in cfuncs], np.int64)
+                self._entry_points = np.array([0 if f is None else f.address
+                                               for f in cfuncs], np.int64)
         return self._entry_points
+
+    def _called(self, name: str) -> bool:
+        """Whether the integrator calls entry point ``name`` (not an update without discrete
+        logic, nor a stiffness no component declares: neither is compiled, address 0)."""
+        return ((name != "update" or self.integrator.HAS_UPDATE)
+                and (name != "stiffness" or self.integrator.HAS_STIFFNESS))
 
     def function(self, fname: str):
         """The integrator's function ``fname`` with ``S`` bound: compiled under the

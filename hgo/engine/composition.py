@@ -3,9 +3,9 @@ experiment.
 
 The module holds each component's parameter record (read from the flat parameter vector
 ``P`` at constant offsets), the composed functions the integrators call (``system_rhs``,
-``system_update``, ``system_outputs``, ``system_errors``, ``system_stiffness``: the
+``system_update``, ``system_outputs``, ``system_stiffness`` and RK4's ``system_rk4``: the
 components' functions on their slices of the flat vectors) and, for the compiled path,
-their C entry points ``c_rhs`` .. ``c_stiffness``: the same functions taking the arrays'
+their C entry points ``c_rhs`` .. ``c_rk4``: the same functions taking the arrays'
 data pointers (lengths are constants of the module), compiled by :mod:`hgo.engine.codegen`
 as numba ``cfunc`` and handed to the integrator (:mod:`hgo.engine.kernel_template`) as
 function pointers. The integrator is compiled apart, once per method and layout.
@@ -20,9 +20,10 @@ import re
 from hgo.core.components import no_update
 from hgo.engine.system import System
 
-ENTRY_POINTS = ("rhs", "update", "outputs", "errors", "stiffness", "rk4")
+ENTRY_POINTS = ("rhs", "update", "outputs", "stiffness", "rk4")
 """The composition's functions in the order of the integrator's ``S`` (``rk4``: for the RK4
-integrator only)."""
+integrator only). ``outputs`` also gives what the error metrics read (``with_u`` = 0: y
+and x^ without the controller's input), one compile for both."""
 
 
 def _components(system: System) -> list:
@@ -123,8 +124,8 @@ def _records(system: System, names: dict) -> tuple[list[str], list[str], dict[st
 # the measurement written out; only the components' own functions are called (and, in
 # the RK4 step, the composed right-hand side, update and stiffness, inlined).
 ARRAYS = {"rhs": "z d m P w dz", "update": "z d m P w", "outputs": "z d m P w y u xh",
-          "errors": "z d m P w y xh", "stiffness": "z d P", "rk4": "z d m P w k1 k2 k3 k4 zt"}
-SCALARS = {"rk4": "t, h, t_lim, t_new"}  # (the others: t)
+          "stiffness": "z d P", "rk4": "z d m P w k1 k2 k3 k4 zt"}
+SCALARS = {"rk4": "t, h, t_lim, t_new", "outputs": "t, with_u"}  # (the others: t)
 RETURNS_FLOAT = ("stiffness", "rk4")  # (the others return nothing)
 LENGTHS = {"z": "NZ", "d": "ND", "m": "NY", "P": "NP", "w": "NW", "dz": "NZ", "y": "NY",
            "u": "NU", "xh": "NXH", "k1": "NZ", "k2": "NZ", "k3": "NZ", "k4": "NZ", "zt": "NZ"}
@@ -161,7 +162,7 @@ def _function(name: str, body: list[str], bindings: dict[str, str]) -> list[str]
 
 
 def composition_text(system: System, names: dict, noisy: bool) -> str:
-    """The composition's module text (module doc): records, sizes, the five functions."""
+    """The composition's module text (module doc): records, sizes, the entry points."""
     nx, ny, nu = system.plant.nx, len(system.plant.output_names), len(system.plant.input_names)
     zs, ds, xs = system.z_slices, system.d_slices, system.xh_slices
     ctrl_obs = system.controlled_observer()
@@ -178,13 +179,18 @@ def composition_text(system: System, names: dict, noisy: bool) -> str:
         lines = [f"    {names['plant_h']}(t, {_v('z', 0, nx)}, {p_args[0]}, {y})",
                  *([f"    for i in range({ny}):", "        w[i] += m[i]"] if noisy else
                    ["    # noiseless: y = h(x)"])]
-        if with_u and ctrl_obs is not None:
-            zk, dk, pk = obs_args(ctrl_obs)
-            xc = _v("w", ny + nu, work_length(system))
-            if reads_estimate(system):  # (an open-loop input ignores the estimate)
-                lines.append(f"    {names['obs'][ctrl_obs][2]}(t, {zk}, {dk}, {pk}, {xc})")
-            lines.append(f"    {names['ctrl']}(t, {xc}, {y}, {p_args[-1]}, {u})")
-        return lines
+        return lines + (control() if with_u else [])
+
+    def control() -> list[str]:
+        """The controller's input u into w, from y and its observer's estimate."""
+        if ctrl_obs is None:
+            return []
+        zk, dk, pk = obs_args(ctrl_obs)
+        xc = _v("w", ny + nu, work_length(system))
+        lines = []
+        if reads_estimate(system):  # (an open-loop input ignores the estimate)
+            lines.append(f"    {names['obs'][ctrl_obs][2]}(t, {zk}, {dk}, {pk}, {xc})")
+        return [*lines, f"    {names['ctrl']}(t, {xc}, {y}, {p_args[-1]}, {u})"]
 
     updates = [o.update for o in system.observers]
     # the update needs u only if some update reads it (u may cost a controller evaluation)
@@ -205,11 +211,12 @@ def composition_text(system: System, names: dict, noisy: bool) -> str:
                 update.append(f"    {upd}(t, {zk}, {dk}, {y}, {u}, {pk})")
     estimates = [f"    {est}(t, {', '.join(obs_args(k)[:2])}, {p_args[k + 1]}, "
                  f"{_v('xh', *xs[k])})" for k, (_, _, est) in enumerate(names["obs"])]
-    outputs = [*measure(True), f"    for i in range({ny}):", "        y[i] = w[i]",
-               f"    for i in range({nu}):", f"        u[i] = w[{ny} + i]", *estimates]
-    # the error metrics read y and x^ only: their points cost no controller evaluation
-    errors = [*measure(False), f"    for i in range({ny}):", "        y[i] = w[i]",
-              *estimates]
+    # with_u = 0: what the error metrics read, y and x^ only (their points cost no
+    # controller evaluation; u is not written)
+    outputs = [*measure(False), f"    for i in range({ny}):", "        y[i] = w[i]",
+               "    if with_u != 0.0:",
+               *["    " + line for line in control()],
+               f"        for i in range({nu}):", f"            u[i] = w[{ny} + i]", *estimates]
     stiffness = ["    rho = 0.0"]  # the largest spectral radius declared *now* by hooks
     for k, fn in enumerate(names["stiff"]):
         if fn is not None:
@@ -222,7 +229,7 @@ def composition_text(system: System, names: dict, noisy: bool) -> str:
              f"NZ = {system.nz}", f"ND = {system.nd}", f"NY = {ny}", f"NU = {nu}",
              f"NP = {system.p_slices[-1][1]}", f"NXH = {system.nxh}",
              f"NW = {work_length(system)}"]
-    for name, body in zip(ENTRY_POINTS, (rhs, update, outputs, errors, stiffness, RK4),
+    for name, body in zip(ENTRY_POINTS, (rhs, update, outputs, stiffness, RK4),
                           strict=True):
         lines += _function(name, body, bindings)
     return "\n".join(lines) + "\n"

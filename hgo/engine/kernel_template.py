@@ -9,11 +9,13 @@ the constants the integrator is specialised on (the sizes ``NZ``, ``NY``, ``NU``
 integrator asked for (``rk4``, or ``adaptive`` for ``dopri5``/``dop853``). The result is
 compiled with numba once per method and layout and cached; it knows nothing else of the
 composition. The composition (plant, observers, controller: :mod:`hgo.engine.composition`)
-comes in at run time as ``S``, the five functions it is called through: ``S[0]`` the
-right-hand side, ``S[1]`` the discrete update, ``S[2]`` the outputs, ``S[3]`` what the
-error metrics read, ``S[4]`` the stiffness the components declare now. Compiled, ``S`` is
-an int64 array of the addresses of their C entry points (numba ``cfunc``), called with the
-arrays' data pointers (``call_void``, ``call_float``); on the pure-Python path (a user
+comes in at run time as ``S``, the functions it is called through: ``S[0]`` the
+right-hand side, ``S[1]`` the discrete update, ``S[2]`` the outputs (with ``with_u`` = 0:
+what the error metrics read), ``S[3]`` the stiffness the components declare now (RK4:
+``S[4]`` its step). Compiled, ``S`` is an int64 array of the addresses of their C entry
+points (numba ``cfunc``), called with the arrays' data pointers (``call_void``,
+``call_float``; 0 for ``S[1]`` without ``HAS_UPDATE`` and ``S[3]`` without
+``HAS_STIFFNESS``: never called); on the pure-Python path (a user
 component numba cannot compile) it is a tuple of the composition's Python functions and
 ``ptr`` is the identity.
 
@@ -72,7 +74,7 @@ import math
 import numpy as np
 
 
-# The composition's five functions, called through ``S`` (module doc): C entry points at
+# The composition's functions, called through ``S`` (module doc): C entry points at
 # the addresses ``S[k]``, taking the arrays' data (``ptr``) in a compiled kernel; the Python
 # functions themselves (``ptr`` the identity) on the pure-Python path.
 @ijit
@@ -88,19 +90,23 @@ def _update(S, t, z, d, m, P, w):
 
 @ijit
 def _outputs(S, t, z, d, m, P, w, y, u, xh):
-    call_void(S[2], t, (ptr(z), ptr(d), ptr(m), ptr(P), ptr(w), ptr(y), ptr(u), ptr(xh)))
+    call_void(S[2], (t, 1.0),
+              (ptr(z), ptr(d), ptr(m), ptr(P), ptr(w), ptr(y), ptr(u), ptr(xh)))
 
 
 @ijit
 def _errors(S, t, z, d, m, P, w, y, xh):
-    call_void(S[3], t, (ptr(z), ptr(d), ptr(m), ptr(P), ptr(w), ptr(y), ptr(xh)))
+    # the outputs without the controller's input (with_u = 0: u is neither computed nor
+    # written; y stands in for its pointer, which is never accessed)
+    call_void(S[2], (t, 0.0),
+              (ptr(z), ptr(d), ptr(m), ptr(P), ptr(w), ptr(y), ptr(y), ptr(xh)))
 
 
 @ijit
 def _stiffness(S, t, z, d, P):
     if not HAS_STIFFNESS:  # (a constant: no component declares its stiffness now)
         return 0.0
-    return call_float(S[4], t, (ptr(z), ptr(d), ptr(P)))
+    return call_float(S[3], t, (ptr(z), ptr(d), ptr(P)))
 
 
 @ijit
@@ -286,10 +292,10 @@ def integrate_ensemble(S, Z0, D0, PP, noise, noise_dt, BR, t_end, dt_out, h_max,
 def _rk4_step(S, t, h, t_lim, t_new, z, d, m, P, w, k1, k2, k3, k4, zt):
     """One RK4 step from (t, z), its last stage at min(t + h, t_lim) (t_lim: below a break
     point), then the discrete update at t_new; returns the stiffness the components declare
-    after it. One call of the composition's entry point ``S[5]`` (its RK4 step, compiled
+    after it. One call of the composition's entry point ``S[4]`` (its RK4 step, compiled
     with its right-hand side inlined): RK4's steps are many and short, a call through an
     address for each stage cost A (the switched DC motor) ~40 % of its run."""
-    return call_float(S[5], (t, h, t_lim, t_new),
+    return call_float(S[4], (t, h, t_lim, t_new),
                       (ptr(z), ptr(d), ptr(m), ptr(P), ptr(w), ptr(k1), ptr(k2), ptr(k3),
                        ptr(k4), ptr(zt)))
 
