@@ -15,7 +15,10 @@ figures), in turn:
   tableau texts and numba's cache of them) and the compiled components
   (``components/``, :mod:`hgo.engine.component_cache`), copied from the empty run's
   folder: the composition is new, its integrator and hgo's components known, as after
-  a change of an experiment's structure (another observer, noise on or off);
+  a change of an experiment's structure (another observer, noise on or off). The
+  results of theory computations (``theory/``: DHLM's LMIs, ~1.5 s of cvxpy, not a
+  compile) are copied too: measured before 2026-12-01 without them, dhlm_example's
+  "new composition" held that second and a half;
 * **new+comp**: as **new** without the components: every component compiles too, as
   for a plant not met before (the measure of "new" before components were cached);
 * **cached**: the run again with the empty run's folder (everything loaded from it).
@@ -76,10 +79,11 @@ def load() -> str:
 
 def known_only(cache: str, target: str, components: bool) -> None:
     """Copy the integrators of kernel cache ``cache`` (module texts, tableau texts, numba's
-    cache files of the integrator modules) and, if ``components``, its compiled
-    components into the empty folder ``target``."""
+    cache files of the integrator modules), its theory results and, if ``components``,
+    its compiled components into the empty folder ``target``."""
     for path in Path(cache).rglob("*"):
-        component = components and path.relative_to(cache).parts[0] == "components"
+        folder = path.relative_to(cache).parts[0]
+        component = folder == "theory" or (components and folder == "components")
         if path.is_file() and (component or path.name.startswith(("hgo_integrator_",
                                                                     "hgo_tableau_"))):
             dest = Path(target) / path.relative_to(cache)
