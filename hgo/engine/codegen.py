@@ -430,8 +430,8 @@ class Kernel:
     def _called(self, name: str) -> bool:
         """Whether the integrator calls entry point ``name`` (not an update without discrete
         logic, nor a stiffness no component declares: neither is compiled, address 0)."""
-        return ((name != "update" or self.integrator.HAS_UPDATE)
-                and (name != "stiffness" or self.integrator.HAS_STIFFNESS))
+        return ((name != "update" or self.composition.HAS_UPDATE)
+                and (name != "stiffness" or self.composition.HAS_STIFFNESS))
 
     def function(self, fname: str):
         """The integrator's function ``fname`` with ``S`` bound: compiled under the

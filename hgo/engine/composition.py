@@ -123,26 +123,32 @@ def _records(system: System, names: dict) -> tuple[list[str], list[str], dict[st
 # from the header). Every body is flat: the records it uses bound as locals at its top,
 # the measurement written out; only the components' own functions are called (and, in
 # the RK4 step, the composed right-hand side, update and stiffness, inlined).
-ARRAYS = {"rhs": "z d m P w dz", "update": "z d m P w", "outputs": "z d m P w y u xh",
-          "stiffness": "z d P", "rk4": "z d m P w k1 k2 k3 k4 zt"}
+ARRAYS = {"rhs": "z d m P dz", "update": "z d m P", "outputs": "z d m P y u xh",
+          "stiffness": "z d P", "rk4": "z d m P k1 k2 k3 k4 zt"}
 SCALARS = {"rk4": "t, h, t_lim, t_new", "outputs": "t, with_u"}  # (the others: t)
 RETURNS_FLOAT = ("stiffness", "rk4")  # (the others return nothing)
-LENGTHS = {"z": "NZ", "d": "ND", "m": "NY", "P": "NP", "w": "NW", "dz": "NZ", "y": "NY",
+LENGTHS = {"z": "NZ", "d": "ND", "m": "NY", "P": "NP", "dz": "NZ", "y": "NY",
            "u": "NU", "xh": "NXH", "k1": "NZ", "k2": "NZ", "k3": "NZ", "k4": "NZ", "zt": "NZ"}
 # called by the RK4 step (compiled into it): the others are only entry points
 CALLED = ("rhs", "update", "stiffness")
 # One RK4 step from (t, z), then the discrete update at t_new; the stiffness after it
-RK4 = ["    system_rhs(t, z, d, m, P, w, k1)",
+RK4 = ["    system_rhs(t, z, d, m, P, k1)",
        "    for i in range(NZ):", "        zt[i] = z[i] + 0.5 * h * k1[i]",
-       "    system_rhs(t + 0.5 * h, zt, d, m, P, w, k2)",
+       "    system_rhs(t + 0.5 * h, zt, d, m, P, k2)",
        "    for i in range(NZ):", "        zt[i] = z[i] + 0.5 * h * k2[i]",
-       "    system_rhs(t + 0.5 * h, zt, d, m, P, w, k3)",
+       "    system_rhs(t + 0.5 * h, zt, d, m, P, k3)",
        "    for i in range(NZ):", "        zt[i] = z[i] + h * k3[i]",
-       "    system_rhs(min(t + h, t_lim), zt, d, m, P, w, k4)",
+       "    system_rhs(min(t + h, t_lim), zt, d, m, P, k4)",
        "    h6 = h / 6.0",
        "    for i in range(NZ):", "        z[i] += h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])",
-       "    system_update(t_new, z, d, m, P, w)",
+       "    system_update(t_new, z, d, m, P)",
        "    return system_stiffness(t_new, z, d, P)"]
+
+
+# The work vector (y, u and the estimate the controller reads: a function's own scratch,
+# written before it is read in every call) on the stack, zeroed: an input that ignores the
+# estimate gets zeros, as from the integrator's zeroed work vector before
+WORK = ["    w = stack(NW)", "    for i in range(NW):", "        w[i] = 0.0"]
 
 
 def scalars_of(name: str) -> str:
@@ -151,9 +157,12 @@ def scalars_of(name: str) -> str:
 
 
 def _function(name: str, body: list[str], bindings: dict[str, str]) -> list[str]:
-    """``system_<name>`` and ``c_<name>`` with ``body``, after the records it uses."""
+    """``system_<name>`` and ``c_<name>`` with ``body``, after the records it uses and the
+    work vector ``w`` if it uses it."""
     text = "\n".join(body)
     used = [line for local, line in bindings.items() if re.search(rf"\b{local}\b", text)]
+    if re.search(r"\bw\b", text):
+        used = [*WORK, *used]
     arrays, scalars = ARRAYS[name].split(), scalars_of(name)
     return ["", "", *(["@ijit"] if name in CALLED else []),
             f"def system_{name}({scalars}, {', '.join(arrays)}):", *used, *body,
@@ -228,7 +237,10 @@ def composition_text(system: System, names: dict, noisy: bool) -> str:
              "# the lengths of the arrays the entry points get as pointers",
              f"NZ = {system.nz}", f"ND = {system.nd}", f"NY = {ny}", f"NU = {nu}",
              f"NP = {system.p_slices[-1][1]}", f"NXH = {system.nxh}",
-             f"NW = {work_length(system)}"]
+             f"NW = {work_length(system)}", "",
+             "# which entry points the integrator calls (the others: address 0)",
+             f"HAS_UPDATE = {has_discrete_update(system)}",
+             f"HAS_STIFFNESS = {has_stiffness(system)}"]
     for name, body in zip(ENTRY_POINTS, (rhs, update, outputs, stiffness, RK4),
                           strict=True):
         lines += _function(name, body, bindings)
@@ -238,6 +250,11 @@ def composition_text(system: System, names: dict, noisy: bool) -> str:
 def has_discrete_update(system: System) -> bool:
     """Whether some observer has discrete logic (an ``update``)."""
     return any(o.update is not no_update for o in system.observers)
+
+
+def has_stiffness(system: System) -> bool:
+    """Whether some observer declares its stiffness (a hook bounding RK4's step)."""
+    return any(getattr(o, "stiffness", None) is not None for o in system.observers)
 
 
 def work_length(system: System) -> int:
@@ -250,19 +267,13 @@ def work_length(system: System) -> int:
 
 def integrator_constants(system: System) -> str:
     """What an integrator is specialised on (its header, :mod:`hgo.engine.kernel_template`):
-    the sizes, the maps of the error metrics, whether there is discrete logic and whether
-    a component declares its stiffness (RK4's step cap)."""
+    the sizes of the state, outputs and estimates and the maps of the error metrics."""
     plant = system.plant
     return "\n".join([
-        f"HAS_UPDATE = {has_discrete_update(system)}",
-        "HAS_STIFFNESS = "
-        f"{any(getattr(o, 'stiffness', None) is not None for o in system.observers)}",
         f"NZ = {system.nz}",
         f"NY = {len(plant.output_names)}",
-        f"NU = {len(plant.input_names)}",
         f"NXH = {system.nxh}",
         f"NOBS = {len(system.observers)}",
-        f"NW = {work_length(system)}",
         f"EST_MAP = np.array({system.estimate_map().tolist()}, dtype=np.int64)",
         f"YHAT_COL = np.array({system.yhat_columns().tolist()}, dtype=np.int64)",
         f"OBS_OF = np.array({system.xh_observer().tolist()}, dtype=np.int64)",

@@ -3,9 +3,10 @@
 :mod:`hgo.engine.codegen` prepends a header that defines ``jit`` (the functions Python
 calls), ``ijit`` (inlined into their caller, not callable from Python: every other
 function here), ``pjit``, ``prange``, ``view``, ``ptr``, ``call_void``, ``call_float`` and
-the constants the integrator is specialised on (the sizes ``NZ``, ``NY``, ``NU``, ``NXH``,
-``NOBS``, ``NW``, the error maps ``EST_MAP``, ``YHAT_COL``, ``OBS_OF``, ``HAS_UPDATE`` and
-``HAS_STIFFNESS``), then appends the section ``common`` and the section of the one
+the constants the integrator is specialised on (the sizes ``NZ``, ``NY``, ``NXH``, ``NOBS``
+and the error maps ``EST_MAP``, ``YHAT_COL``, ``OBS_OF``; not the number of inputs, nor
+whether there is discrete logic or a declared stiffness: one integrator serves them all),
+then appends the section ``common`` and the section of the one
 integrator asked for (``rk4``, or ``adaptive`` for ``dopri5``/``dop853``). The result is
 compiled with numba once per method and layout and cached; it knows nothing else of the
 composition. The composition (plant, observers, controller: :mod:`hgo.engine.composition`)
@@ -78,33 +79,33 @@ import numpy as np
 # the addresses ``S[k]``, taking the arrays' data (``ptr``) in a compiled kernel; the Python
 # functions themselves (``ptr`` the identity) on the pure-Python path.
 @ijit
-def _rhs(S, t, z, d, m, P, w, dz):
-    call_void(S[0], t, (ptr(z), ptr(d), ptr(m), ptr(P), ptr(w), ptr(dz)))
+def _rhs(S, t, z, d, m, P, dz):
+    call_void(S[0], t, (ptr(z), ptr(d), ptr(m), ptr(P), ptr(dz)))
 
 
 @ijit
-def _update(S, t, z, d, m, P, w):
-    if HAS_UPDATE:  # (a constant: a composition without discrete logic calls nothing)
-        call_void(S[1], t, (ptr(z), ptr(d), ptr(m), ptr(P), ptr(w)))
+def _update(S, t, z, d, m, P):
+    if S[1] != 0:  # (0: a composition without discrete logic, nothing to call)
+        call_void(S[1], t, (ptr(z), ptr(d), ptr(m), ptr(P)))
 
 
 @ijit
-def _outputs(S, t, z, d, m, P, w, y, u, xh):
+def _outputs(S, t, z, d, m, P, y, u, xh):
     call_void(S[2], (t, 1.0),
-              (ptr(z), ptr(d), ptr(m), ptr(P), ptr(w), ptr(y), ptr(u), ptr(xh)))
+              (ptr(z), ptr(d), ptr(m), ptr(P), ptr(y), ptr(u), ptr(xh)))
 
 
 @ijit
-def _errors(S, t, z, d, m, P, w, y, xh):
+def _errors(S, t, z, d, m, P, y, xh):
     # the outputs without the controller's input (with_u = 0: u is neither computed nor
     # written; y stands in for its pointer, which is never accessed)
     call_void(S[2], (t, 0.0),
-              (ptr(z), ptr(d), ptr(m), ptr(P), ptr(w), ptr(y), ptr(y), ptr(xh)))
+              (ptr(z), ptr(d), ptr(m), ptr(P), ptr(y), ptr(y), ptr(xh)))
 
 
 @ijit
 def _stiffness(S, t, z, d, P):
-    if not HAS_STIFFNESS:  # (a constant: no component declares its stiffness now)
+    if S[3] == 0:  # (0: no component declares its stiffness)
         return 0.0
     return call_float(S[3], t, (ptr(z), ptr(d), ptr(P)))
 
@@ -119,29 +120,29 @@ def _state_status(z, bound):
     return 0
 
 
-# Length of the work vector the integrators share: w, y, u, xh, sq, prev, win (2), m
+# Length of the work vector the integrators share, but for u (``nu`` = U.shape[1], a run-time
+# size: the integrator is the same for any number of inputs): y, xh, sq, prev, win (2), m
 # (a global int: a constant for numba, not one more function to compile).
-N_COMMON_WORK = NW + NY + NU + NXH + 2 * (NXH + NOBS) + 2 + NY
+N_COMMON_WORK = NY + NXH + 2 * (NXH + NOBS) + 2 + NY
 
 
 @ijit
-def _common_views(work, o):
+def _common_views(work, o, nu):
     """Views of the work vector shared by the integrators, from offset o:
-    w, y, u, xh, sq, prev, win, m (lengths as in ``N_COMMON_WORK``)."""
-    w = view(work, o, o + NW)
-    y = view(work, o + NW, o + NW + NY)
-    u = view(work, o + NW + NY, o + NW + NY + NU)
-    xh = view(work, o + NW + NY + NU, o + NW + NY + NU + NXH)
-    o += NW + NY + NU + NXH
+    y, u, xh, sq, prev, win, m (lengths as in ``N_COMMON_WORK``, u: ``nu``)."""
+    y = view(work, o, o + NY)
+    u = view(work, o + NY, o + NY + nu)
+    xh = view(work, o + NY + nu, o + NY + nu + NXH)
+    o += NY + nu + NXH
     sq = view(work, o, o + NXH + NOBS)
     prev = view(work, o + NXH + NOBS, o + 2 * (NXH + NOBS))
     win = view(work, o + 2 * (NXH + NOBS), o + 2 * (NXH + NOBS) + 2)
     m = view(work, o + 2 * (NXH + NOBS) + 2, o + 2 * (NXH + NOBS) + 2 + NY)
-    return w, y, u, xh, sq, prev, win, m
+    return y, u, xh, sq, prev, win, m
 
 
 @ijit
-def _start(S, z, d, m, P, w, y, u, xh, sq, prev, acc, win, noise, bound, t_end, dt_out, t_window,
+def _start(S, z, d, m, P, y, u, xh, sq, prev, acc, win, noise, bound, t_end, dt_out, t_window,
            Z, D, Y, M, U, XH):
     """State at t = 0: first noise sample, cleared integrals, discrete update, output 0.
 
@@ -155,9 +156,9 @@ def _start(S, z, d, m, P, w, y, u, xh, sq, prev, acc, win, noise, bound, t_end, 
         m[i] = noise[0, i]
     for j in range(acc.shape[0]):
         acc[j] = 0.0
-    _update(S, 0.0, z, d, m, P, w)
+    _update(S, 0.0, z, d, m, P)
     status = _state_status(z, bound)
-    _emit(S, np.int64(0), 0.0, z, d, m, P, w, y, u, xh, Z, D, Y, M, U, XH)
+    _emit(S, np.int64(0), 0.0, z, d, m, P, y, u, xh, Z, D, Y, M, U, XH)
     if t_win0 <= tol:  # the window is the whole horizon: it starts here
         _point_errors(z, y, xh, sq, acc)
         _trapezoid(0.0, sq, prev, acc, win)
@@ -196,11 +197,11 @@ def _pass_breaks(breaks, k_break, t, tol):
 
 
 @ijit
-def _emit(S, k, t, z, d, m, P, w, y, u, xh, Z, D, Y, M, U, XH):
+def _emit(S, k, t, z, d, m, P, y, u, xh, Z, D, Y, M, U, XH):
     """Output sample k at time t: the signals, recorded when there is a record. Not a
     point of the window metrics: they are made from the integration's own points only,
     so they do not depend on the output grid."""
-    _outputs(S, t, z, d, m, P, w, y, u, xh)
+    _outputs(S, t, z, d, m, P, y, u, xh)
     if Z.shape[0] > 0:
         for i in range(NZ):
             Z[k, i] = z[i]
@@ -209,7 +210,7 @@ def _emit(S, k, t, z, d, m, P, w, y, u, xh, Z, D, Y, M, U, XH):
         for i in range(NY):
             Y[k, i] = y[i]
             M[k, i] = m[i]
-        for i in range(NU):
+        for i in range(U.shape[1]):
             U[k, i] = u[i]
         for i in range(NXH):
             XH[k, i] = xh[i]
@@ -257,10 +258,10 @@ def _trapezoid(t, sq, prev, acc, win):
 
 
 @ijit
-def _step_end(S, t, z, d, m, P, w, y, xh, sq, prev, acc, win, t_win0, tol):
+def _step_end(S, t, z, d, m, P, y, xh, sq, prev, acc, win, t_win0, tol):
     """An RK4 step ends at t: a point of the window metrics (inside the window only)."""
     if t >= t_win0 - tol:
-        _errors(S, t, z, d, m, P, w, y, xh)
+        _errors(S, t, z, d, m, P, y, xh)
         _point_errors(z, y, xh, sq, acc)
         _trapezoid(t, sq, prev, acc, win)
 
@@ -289,14 +290,14 @@ def integrate_ensemble(S, Z0, D0, PP, noise, noise_dt, BR, t_end, dt_out, h_max,
 
 # --- section: rk4 ---
 @ijit
-def _rk4_step(S, t, h, t_lim, t_new, z, d, m, P, w, k1, k2, k3, k4, zt):
+def _rk4_step(S, t, h, t_lim, t_new, z, d, m, P, k1, k2, k3, k4, zt):
     """One RK4 step from (t, z), its last stage at min(t + h, t_lim) (t_lim: below a break
     point), then the discrete update at t_new; returns the stiffness the components declare
     after it. One call of the composition's entry point ``S[4]`` (its RK4 step, compiled
     with its right-hand side inlined): RK4's steps are many and short, a call through an
     address for each stage cost A (the switched DC motor) ~40 % of its run."""
     return call_float(S[4], (t, h, t_lim, t_new),
-                      (ptr(z), ptr(d), ptr(m), ptr(P), ptr(w), ptr(k1), ptr(k2), ptr(k3),
+                      (ptr(z), ptr(d), ptr(m), ptr(P), ptr(k1), ptr(k2), ptr(k3),
                        ptr(k4), ptr(zt)))
 
 
@@ -309,7 +310,7 @@ def integrate(S, z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, a
     functions re-optimises and re-emits the whole inlined body, which cost seconds of
     compilation.
     """
-    work = np.zeros(5 * z.shape[0] + N_COMMON_WORK)
+    work = np.zeros(5 * z.shape[0] + N_COMMON_WORK + U.shape[1])
     z, d, P, noise, acc = borrow(z), borrow(d), borrow(P), borrow(noise), borrow(acc)
     T, Z, D, Y, M = borrow(T), borrow(Z), borrow(D), borrow(Y), borrow(M)
     U, XH = borrow(U), borrow(XH)
@@ -319,11 +320,11 @@ def integrate(S, z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, a
     k3 = view(work, 2 * nz, 3 * nz)
     k4 = view(work, 3 * nz, 4 * nz)
     zt = view(work, 4 * nz, 5 * nz)
-    w, y, u, xh, sq, prev, win, m = _common_views(work, 5 * nz)
+    y, u, xh, sq, prev, win, m = _common_views(work, 5 * nz, U.shape[1])
     n_noise = noise.shape[0]
     t = 0.0
     k_noise = 0
-    status, n_out, tol, t_win0 = _start(S, z, d, m, P, w, y, u, xh, sq, prev, acc, win, noise,
+    status, n_out, tol, t_win0 = _start(S, z, d, m, P, y, u, xh, sq, prev, acc, win, noise,
                                         bound, t_end, dt_out, t_window, Z, D, Y, M, U, XH)
     _stamp(T, 0, dt_out)
     if status != 0:
@@ -360,12 +361,12 @@ def integrate(S, z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, a
                     rho_plan = rho
                 n_sub -= 1
                 t_new = t_next if n_sub <= 0 else t + h
-                rho_now = _rk4_step(S, t, h, t_lim, t_new, z, d, m, P, w, k1, k2, k3, k4, zt)
+                rho_now = _rk4_step(S, t, h, t_lim, t_new, z, d, m, P, k1, k2, k3, k4, zt)
                 t = t_new
                 status = _state_status(z, bound)
                 if status != 0:
                     return status, k_out, t
-                _step_end(S, t, z, d, m, P, w, y, xh, sq, prev, acc, win, t_win0, tol)
+                _step_end(S, t, z, d, m, P, y, xh, sq, prev, acc, win, t_win0, tol)
                 n_steps += 1
                 if n_steps > max_steps:
                     return 5, k_out, t
@@ -382,7 +383,7 @@ def integrate(S, z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, a
                     m[i] = noise[idx, i]
             if t_out <= t + tol:
                 break
-        _emit(S, k_out, t, z, d, m, P, w, y, u, xh, Z, D, Y, M, U, XH)
+        _emit(S, k_out, t, z, d, m, P, y, u, xh, Z, D, Y, M, U, XH)
         _stamp(T, k_out, dt_out)
     return 0, n_out, t
 
@@ -392,7 +393,7 @@ def integrate(S, z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, a
 # (N_K stages rows, N_F dense-output rows, FSAL_STAGE, ERR_EXP) and its functions
 # _trial, _dense_prep, _dense_eval come before this section (hgo.engine.tableau).
 @ijit
-def _initial_step(S, t, z, d, m, P, w, k1, k2, zt, rtol, atol, h_max, t_lim):
+def _initial_step(S, t, z, d, m, P, k1, k2, zt, rtol, atol, h_max, t_lim):
     """Hairer's starting step (Solving ODEs I, II.4) from f0 = k1; uses 1 evaluation.
 
     The RMS norms are written out here (not a helper): one function less to compile."""
@@ -408,7 +409,7 @@ def _initial_step(S, t, z, d, m, P, w, k1, k2, zt, rtol, atol, h_max, t_lim):
     h0 = min(h0, h_max)
     for i in range(NZ):
         zt[i] = z[i] + h0 * k1[i]
-    _rhs(S, min(t + h0, t_lim), zt, d, m, P, w, k2)
+    _rhs(S, min(t + h0, t_lim), zt, d, m, P, k2)
     d2 = 0.0
     for i in range(NZ):
         d2 += ((k2[i] - k1[i]) / (atol + rtol * abs(z[i]))) ** 2
@@ -467,13 +468,13 @@ def dense_signals(S, SR, n_steps, ts, P, Z, D, Y, M, U, XH):
     at t, the outputs with the step's discrete state and noise sample."""
     nz, nd = Z.shape[1], D.shape[1]
     nf = N_F * nz
-    work = np.zeros(2 * nz + nf + nd + NY + N_COMMON_WORK)
+    work = np.zeros(2 * nz + nf + nd + NY + N_COMMON_WORK + U.shape[1])
     zo = view(work, 0, nz)
     z = view(work, nz, 2 * nz)
     F = view(work, 2 * nz, 2 * nz + nf)
     d = view(work, 2 * nz + nf, 2 * nz + nf + nd)
     m = view(work, 2 * nz + nf + nd, 2 * nz + nf + nd + NY)
-    w, y, u, xh, sq, prev, win, m2 = _common_views(work, 2 * nz + nf + nd + NY)
+    y, u, xh, sq, prev, win, m2 = _common_views(work, 2 * nz + nf + nd + NY, U.shape[1])
     k, loaded = 0, -1
     for j in range(ts.shape[0]):
         k = _step_of(SR, n_steps, ts[j], k)
@@ -488,7 +489,7 @@ def dense_signals(S, SR, n_steps, ts, P, Z, D, Y, M, U, XH):
         for i in range(NY):
             m[i] = SR[k, 2 + nz + nf + nd + i]
         _dense_eval((ts[j] - SR[k, 0]) / SR[k, 1], z, F, zo)
-        _emit(S, np.int64(j), ts[j], zo, d, m, P, w, y, u, xh, Z, D, Y, M, U, XH)
+        _emit(S, np.int64(j), ts[j], zo, d, m, P, y, u, xh, Z, D, Y, M, U, XH)
 
 
 # 3-point Gauss-Legendre on [0, 1]: exact for polynomials of degree 5
@@ -497,7 +498,7 @@ GAUSS_WEIGHTS = np.array([5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0])
 
 
 @ijit
-def _window_step(S, t, h, a, b, z, d, m, P, w, y, xh, sq, acc, F, zo):
+def _window_step(S, t, h, a, b, z, d, m, P, y, xh, sq, acc, F, zo):
     """The accepted step [t, t + h] on its part [a, b] inside the metrics window: the
     squared errors integrated by 3-point Gauss-Legendre on the step's continuous extension
     (``F``; its order is the method's), their maxima at the nodes, the length ``b - a``.
@@ -505,7 +506,7 @@ def _window_step(S, t, h, a, b, z, d, m, P, w, y, xh, sq, acc, F, zo):
     for q in range(3):
         tq = a + (b - a) * GAUSS_NODES[q]
         _dense_eval((tq - t) / h, z, F, zo)
-        _errors(S, tq, zo, d, m, P, w, y, xh)
+        _errors(S, tq, zo, d, m, P, y, xh)
         _point_errors(zo, y, xh, sq, acc)
         for j in range(NXH + NOBS):
             acc[j] += (b - a) * GAUSS_WEIGHTS[q] * sq[j]
@@ -521,7 +522,7 @@ def integrate(S, z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, a
     Without a record (an ensemble member), output instants are skipped: nothing reads
     them (the metrics are made from the steps, :func:`_window_step`).
     """
-    work = np.zeros((N_K + N_F + 2) * z.shape[0] + d.shape[0] + N_COMMON_WORK)
+    work = np.zeros((N_K + N_F + 2) * z.shape[0] + d.shape[0] + N_COMMON_WORK + U.shape[1])
     z, d, P, noise, acc = borrow(z), borrow(d), borrow(P), borrow(noise), borrow(acc)
     T, Z, D, Y, M = borrow(T), borrow(Z), borrow(D), borrow(Y), borrow(M)
     U, XH = borrow(U), borrow(XH)
@@ -534,12 +535,12 @@ def integrate(S, z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, a
     zt = view(work, (N_K + N_F) * nz, (N_K + N_F + 1) * nz)
     zo = view(work, (N_K + N_F + 1) * nz, (N_K + N_F + 2) * nz)
     dsave = view(work, (N_K + N_F + 2) * nz, (N_K + N_F + 2) * nz + nd)
-    w, y, u, xh, sq, prev, win, m = _common_views(work, (N_K + N_F + 2) * nz + nd)
+    y, u, xh, sq, prev, win, m = _common_views(work, (N_K + N_F + 2) * nz + nd, U.shape[1])
     record = Z.shape[0] > 0
     n_noise = noise.shape[0]
     t = 0.0
     k_noise = 0
-    status, n_out, tol, t_win0 = _start(S, z, d, m, P, w, y, u, xh, sq, prev, acc, win, noise,
+    status, n_out, tol, t_win0 = _start(S, z, d, m, P, y, u, xh, sq, prev, acc, win, noise,
                                         bound, t_end, dt_out, t_window, Z, D, Y, M, U, XH)
     _stamp(T, 0, dt_out)
     if status != 0:
@@ -548,9 +549,9 @@ def integrate(S, z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, a
     k_break = _pass_breaks(breaks, 0, t, tol)
     n_steps = 0  # trials, accepted or rejected
     max_steps = ctl[1]
-    _rhs(S, t, z, d, m, P, w, k1)
+    _rhs(S, t, z, d, m, P, k1)
     t_seg, t_lim = _next_event(noise_dt, breaks, k_break, t_end, tol)
-    h = _initial_step(S, t, z, d, m, P, w, k1, zo, zt, rtol, atol, h_max, t_lim)
+    h = _initial_step(S, t, z, d, m, P, k1, zo, zt, rtol, atol, h_max, t_lim)
     fsal = True  # k1 holds f(t, z) for the current noise sample, discrete state and piece
     retried = False  # the step being tried follows a rejection
     nonfinite = False  # the last trial's error norm was NaN/inf
@@ -559,10 +560,10 @@ def integrate(S, z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, a
         t_seg, t_lim = _next_event((k_noise + 1) * noise_dt, breaks, k_break, t_end, tol)
         while True:  # steps inside [t, t_seg]
             if not fsal:
-                _rhs(S, t, z, d, m, P, w, k1)
+                _rhs(S, t, z, d, m, P, k1)
                 fsal = True
             if restart:
-                h = _initial_step(S, t, z, d, m, P, w, k1, zo, zt, rtol, atol, h_max, t_lim)
+                h = _initial_step(S, t, z, d, m, P, k1, zo, zt, rtol, atol, h_max, t_lim)
                 restart = False
             hh = min(h, h_max)
             # a step within tol of the segment end takes the rest of the segment, unless the
@@ -578,7 +579,7 @@ def integrate(S, z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, a
                 return 5, k_out, t
             if ctl[0] != 0:
                 return 6, k_out, t
-            err = _trial(S, t, hh, z, d, m, P, w, K, zt, rtol, atol, t_lim)
+            err = _trial(S, t, hh, z, d, m, P, K, zt, rtol, atol, t_lim)
             nonfinite = not math.isfinite(err)  # the underflow it leads to has this cause
             if not err <= 1.0:  # rejected (or non-finite)
                 h = hh * (0.2 if nonfinite else max(0.2, 0.9 * err ** ERR_EXP))
@@ -587,13 +588,13 @@ def integrate(S, z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, a
             t_new = t_seg if last else t + hh
             prepared = False
             if SR.shape[0] > 0:  # the step record (module doc)
-                _dense_prep(S, t, hh, z, zt, d, m, P, w, K, F, zo)
+                _dense_prep(S, t, hh, z, zt, d, m, P, K, F, zo)
                 prepared = True
                 _record_step(SR, ctl, t, hh, z, F, d, m)
             if t_new > t_win0 + tol:  # the step overlaps the metrics window
-                _dense_prep(S, t, hh, z, zt, d, m, P, w, K, F, zo)
+                _dense_prep(S, t, hh, z, zt, d, m, P, K, F, zo)
                 prepared = True
-                _window_step(S, t, hh, max(t, t_win0), t_new, z, d, m, P, w, y, xh, sq, acc,
+                _window_step(S, t, hh, max(t, t_win0), t_new, z, d, m, P, y, xh, sq, acc,
                              F, zo)
             # outputs inside the step, at their instants (the continuous extension); those
             # within tol of the event that ends the segment are taken after the event
@@ -602,20 +603,20 @@ def integrate(S, z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, a
                 t_o = k_out * dt_out
                 if record:
                     if not prepared:
-                        _dense_prep(S, t, hh, z, zt, d, m, P, w, K, F, zo)
+                        _dense_prep(S, t, hh, z, zt, d, m, P, K, F, zo)
                         prepared = True
                     _dense_eval((t_o - t) / hh, z, F, zo)
-                    _emit(S, k_out, t_o, zo, d, m, P, w, y, u, xh, Z, D, Y, M, U, XH)
+                    _emit(S, k_out, t_o, zo, d, m, P, y, u, xh, Z, D, Y, M, U, XH)
                     _stamp(T, k_out, dt_out)
                 k_out += 1
             for i in range(nz):
                 z[i] = zt[i]
                 k1[i] = k_fsal[i]
             t = t_new
-            if HAS_UPDATE:  # (a constant of the generated header: no discrete logic, no code)
+            if S[1] != 0:  # (0: no discrete logic)
                 for i in range(nd):
                     dsave[i] = d[i]
-                _update(S, t, z, d, m, P, w)
+                _update(S, t, z, d, m, P)
                 for i in range(nz):  # the discrete update changed z or d: k1 is stale
                     if z[i] != zt[i]:
                         fsal = False
@@ -626,7 +627,7 @@ def integrate(S, z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, a
             if status != 0:
                 return status, k_out, t
             if t >= t_win0 - tol:  # the step end (after its update) for the maximum norm
-                _errors(S, t, z, d, m, P, w, y, xh)
+                _errors(S, t, z, d, m, P, y, xh)
                 _point_errors(z, y, xh, sq, acc)
             fac = 10.0 if err == 0.0 else min(10.0, max(0.2, 0.9 * err ** ERR_EXP))
             if retried:  # as scipy: no growth right after a rejection (B: 4 % fewer trials)
@@ -648,7 +649,7 @@ def integrate(S, z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, a
                 fsal = False
                 restart = True
         while k_out < n_out and k_out * dt_out <= t + tol:  # at the event, after it
-            _emit(S, k_out, t, z, d, m, P, w, y, u, xh, Z, D, Y, M, U, XH)
+            _emit(S, k_out, t, z, d, m, P, y, u, xh, Z, D, Y, M, U, XH)
             _stamp(T, k_out, dt_out)
             k_out += 1
     return 0, n_out, t

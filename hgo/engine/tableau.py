@@ -14,12 +14,12 @@ the same steps by the same formulas as ``solve_ivp`` with the same method:
 :func:`method_source` returns, for one method, the constants and the three functions the
 generic loop of ``kernel_template``'s ``adaptive`` section calls:
 
-* ``_trial(S, t, h, z, d, m, P, w, K, zt, rtol, atol, t_lim)``: one trial step from
+* ``_trial(S, t, h, z, d, m, P, K, zt, rtol, atol, t_lim)``: one trial step from
   ``(t, z)`` with stage 0 of ``K`` holding ``f(t, z)``; the new state goes to ``zt``,
   ``f(t+h, zt)`` to stage ``FSAL_STAGE``; returns the error norm (<= 1: accept). Every
   stage time is clamped to ``t_lim`` (just below a break point that ends the step: the
   step sees the values before the jump; ``inf`` otherwise).
-* ``_dense_prep(S, t, h, z, zt, d, m, P, w, K, F, scratch)``: coefficients ``F`` of the
+* ``_dense_prep(S, t, h, z, zt, d, m, P, K, F, scratch)``: coefficients ``F`` of the
   continuous extension of the accepted step ``z -> zt``.
 * ``_dense_eval(th, z, F, zo)``: the state at ``t + th*h`` (0 < th < 1) into ``zo``.
 
@@ -85,7 +85,7 @@ def _stages(A: np.ndarray, C: np.ndarray, first: int, stop: int, target: str,
                   "            for i in range(NZ):",
                   *sums,
                   f"                {target}[i] = z[i] + h * a0"]
-    lines.append(f"        _rhs(S, {time}, {target}, d, m, P, w, "
+    lines.append(f"        _rhs(S, {time}, {target}, d, m, P, "
                  "view(K, s * NZ, (s + 1) * NZ))")
     return constants, lines
 
@@ -99,13 +99,13 @@ def _trial(A: np.ndarray, B: np.ndarray, C: np.ndarray, n_stages: int, norm: Cod
     consts, sums = _sums("B", B[None, :], "        ")
     return constants + consts + norm[0], [
         "@ijit",
-        "def _trial(S, t, h, z, d, m, P, w, K, zt, rtol, atol, t_lim):",
+        "def _trial(S, t, h, z, d, m, P, K, zt, rtol, atol, t_lim):",
         '    """One trial step (see hgo.engine.tableau); returns the error norm."""',
         *stages,
         "    for i in range(NZ):",
         *sums,
         "        zt[i] = z[i] + h * a0",
-        f"    _rhs(S, min(t + h, t_lim), zt, d, m, P, w, "
+        f"    _rhs(S, min(t + h, t_lim), zt, d, m, P, "
         f"view(K, {n_stages} * NZ, {n_stages + 1} * NZ))",
         *norm[1]]
 
@@ -143,7 +143,7 @@ def _dopri5() -> Code:
     return constants, [
         *trial, "", "",
         "@ijit",
-        "def _dense_prep(S, t, h, z, zt, d, m, P, w, K, F, scratch):",
+        "def _dense_prep(S, t, h, z, zt, d, m, P, K, F, scratch):",
         '    """F_q = h * sum_j P[j, q] K_j (no extra evaluation)."""',
         *dense, "", "",
         "@ijit",
@@ -180,7 +180,7 @@ def _dop853() -> Code:
     return constants, [
         *trial, "", "",
         "@ijit",
-        "def _dense_prep(S, t, h, z, zt, d, m, P, w, K, F, scratch):",
+        "def _dense_prep(S, t, h, z, zt, d, m, P, K, F, scratch):",
         '    """Three extra stages, then F_0 = zt - z, F_1 = h K_0 - F_0,'
         ' F_2 = 2 F_0 - h (K_0 + K_12), F_3.. = h D K."""',
         *extra,
