@@ -96,3 +96,31 @@ def test_an_announced_cfunc_compile_is_a_numba_compile_event() -> None:
     call = numba.njit(lambda a, t, x: _call_void(a, t, (_data_pointer(x),)))
     call(np.int64(cfunc.address), 1.5, out)
     assert out[0] == 3.0
+
+
+def _driven_f(t, x, u, p, dx):
+    dx[0] = x[1]
+    dx[1] = -x[0] + u[0]
+
+
+def _driven_h(t, x, p, y):
+    y[0] = x[0]
+
+
+def test_one_integrator_serves_plants_with_and_without_inputs() -> None:
+    """Sanfelice & Praly's plant (no input) and a driven oscillator (one input from an
+    open-loop controller, so a longer work vector), each with the same observer: one
+    integrator text (one cache entry, one compile) for the two compositions, which
+    differ. The integrator is not specialised on the number of inputs nor on the work
+    vector (the composition's own scratch)."""
+    from hgo.controllers.open_loop import open_loop_controller
+    from hgo.core.components import Params, Plant
+
+    driven = Plant(name="driven", state_names=["x1", "x2"], output_names=["y"],
+                   input_names=["u"], x0=np.zeros(2), p=Params(), f=_driven_f, h=_driven_h)
+    plain = _system("sign_indefinite")
+    forced = System(driven, plain.observers, open_loop_controller())
+    for method in ("rk4", "dopri5", "dop853"):
+        assert codegen.integrator_source(plain, method) == codegen.integrator_source(forced,
+                                                                                    method)
+    assert codegen.composition_source(plain)[0] != codegen.composition_source(forced)[0]
