@@ -377,13 +377,9 @@ def bench(quick: bool = False, only: list[str] | None = None) -> dict:
         empty, new_kernel, cached = pb.compile_times("B853")
         print(f"compile, B DOP853: empty caches {empty:.2f} s, new kernel {new_kernel:.2f} s, "
               f"cached {cached:.2f} s (load {os.getloadavg()[0]:.2f})")
-        print("\nA new composition and a new integrator (compile_bench.py, one triple "
+        print("\nA new composition and a new integrator (compile_bench.py, one round "
               "each):\n")
-        medians = compile_bench.bench(list(compile_bench.PRESETS), 1)
-        print("compile_new_integrator: " + " ".join(f"{p}={v[1]:.2f}"
-                                                    for p, v in medians.items()))
-        print("compile_new_composition: " + " ".join(f"{p}={v[0]:.2f}"
-                                                     for p, v in medians.items()))
+        compile_bench.print_medians(compile_bench.bench(list(compile_bench.PRESETS), 1))
     print("hgo_over_hand: " + " ".join(f"{k}={v:.2f}" for k, v in ratios.items()))
     return ratios
 
