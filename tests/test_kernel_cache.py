@@ -58,13 +58,18 @@ def test_changed_helper_invalidates_the_cached_kernel(tmp_path):
     assert abs(_run(tmp_path) - 2.0) < 1e-12
 
 
-def test_components_are_not_cached_apart_from_their_kernel(tmp_path):
-    """numba's cache key ignores compile options: a component's own cache entry, written
-    under other options, would be reused by the next kernel. Only helpers are cached."""
+def test_components_are_cached_only_in_a_folder_of_their_compile_options(tmp_path):
+    """numba's cache key ignores compile options: a component's entry in numba's own cache,
+    written under other options, would be reused by the next kernel. There only the
+    helper is; the plant's f and h are in hgo's kernel cache, in the folder named by their
+    sources and options (hgo.engine.component_cache), one folder each."""
     (tmp_path / "userplant.py").write_text(PLANT.format(k="1.0"))
     _run(tmp_path)
     cached = {p.name.split("-")[0] for p in (tmp_path / "numba").rglob("userplant.*.nbi")}
     assert cached == {"userplant.rate"}
+    components = list((tmp_path / "kernels" / "components").rglob("userplant.*.nbi"))
+    assert sorted(p.name.split("-")[0] for p in components) == ["userplant.f", "userplant.h"]
+    assert len({p.parent for p in components}) == 2
 
 
 COMPILE_ONE = textwrap.dedent('''
