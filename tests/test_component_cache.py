@@ -84,13 +84,13 @@ def _run(tmp_path: Path, cache: Path) -> dict:
 
 
 def test_a_later_process_loads_the_components_it_can(tmp_path) -> None:
-    """Three compositions (phi = cube, and closures 2 s and 3 s of one source), each run
-    in two fresh processes sharing a kernel cache (the observer's ``estimate``, whose
-    record is the same in all three, compiled once in the first process) from which the compositions are deleted
-    between them: the second compiles the entry points again but no component (the
-    closures' values are part of their cache key), and every trajectory equals the first
-    process's bit for bit; the two closures give two trajectories (one process's and the
-    other's: not mixed up, which they were before this key, 2026-12-01)."""
+    """Three compositions (phi = cube, and closures 2 s and 3 s of one source), each run in
+    two fresh processes sharing a kernel cache (the observer's ``estimate``, whose record is
+    the same in all three, compiled once in the first process) from which the compositions
+    are deleted between them: the second compiles the entry points again but no component
+    (the closures' values are part of their cache key), and every trajectory equals the
+    first process's bit for bit; the two closures give two trajectories (one process's and
+    the other's: not mixed up, which they were before this key, 2026-12-01)."""
     (tmp_path / "user.py").write_text(textwrap.dedent(USER_MODULE))
     cache = tmp_path / "cache"
     first = _run(tmp_path, cache)

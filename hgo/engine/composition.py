@@ -267,9 +267,14 @@ def work_length(system: System) -> int:
 
 def integrator_constants(system: System) -> str:
     """What an integrator is specialised on (its header, :mod:`hgo.engine.kernel_template`):
-    the sizes of the state, outputs and estimates and the maps of the error metrics."""
+    the sizes of the state, outputs and estimates, the maps of the error metrics, whether
+    there is discrete logic and whether a component declares its stiffness (RK4's step
+    cap): as constants, the code a composition never needs is not compiled. Not the
+    number of inputs nor the composition's work vector (sizes only: read at run time)."""
     plant = system.plant
     return "\n".join([
+        f"HAS_UPDATE = {has_discrete_update(system)}",
+        f"HAS_STIFFNESS = {has_stiffness(system)}",
         f"NZ = {system.nz}",
         f"NY = {len(plant.output_names)}",
         f"NXH = {system.nxh}",

@@ -1,24 +1,23 @@
 """Integrators of a composed system; this file is *source text* for generated integrators.
 
 :mod:`hgo.engine.codegen` prepends a header that defines ``jit`` (the functions Python
-calls), ``ijit`` (inlined into their caller, not callable from Python: every other
-function here), ``pjit``, ``prange``, ``view``, ``ptr``, ``call_void``, ``call_float`` and
-the constants the integrator is specialised on (the sizes ``NZ``, ``NY``, ``NXH``, ``NOBS``
-and the error maps ``EST_MAP``, ``YHAT_COL``, ``OBS_OF``; not the number of inputs, nor
-whether there is discrete logic or a declared stiffness: one integrator serves them all),
-then appends the section ``common`` and the section of the one
-integrator asked for (``rk4``, or ``adaptive`` for ``dopri5``/``dop853``). The result is
-compiled with numba once per method and layout and cached; it knows nothing else of the
-composition. The composition (plant, observers, controller: :mod:`hgo.engine.composition`)
-comes in at run time as ``S``, the functions it is called through: ``S[0]`` the
-right-hand side, ``S[1]`` the discrete update, ``S[2]`` the outputs (with ``with_u`` = 0:
-what the error metrics read), ``S[3]`` the stiffness the components declare now (RK4:
-``S[4]`` its step). Compiled, ``S`` is an int64 array of the addresses of their C entry
-points (numba ``cfunc``), called with the arrays' data pointers (``call_void``,
-``call_float``; 0 for ``S[1]`` without ``HAS_UPDATE`` and ``S[3]`` without
-``HAS_STIFFNESS``: never called); on the pure-Python path (a user
-component numba cannot compile) it is a tuple of the composition's Python functions and
-``ptr`` is the identity.
+calls), ``ijit`` (inlined into their caller, not callable from Python: every other function
+here), ``pjit``, ``prange``, ``view``, ``ptr``, ``call_void``, ``call_float`` and the
+constants the integrator is specialised on (the sizes ``NZ``, ``NY``, ``NXH``, ``NOBS``, the
+error maps ``EST_MAP``, ``YHAT_COL``, ``OBS_OF``, and ``HAS_UPDATE``, ``HAS_STIFFNESS``:
+code a composition never needs is not compiled; not the number of inputs nor the
+composition's work vector: one integrator serves them all), then appends the section
+``common`` and the section of the one integrator asked for (``rk4``, or ``adaptive`` for
+``dopri5``/``dop853``). The result is compiled with numba once per method and layout and
+cached; it knows nothing else of the composition. The composition (plant, observers,
+controller: :mod:`hgo.engine.composition`) comes in at run time as ``S``, the functions it
+is called through: ``S[0]`` the right-hand side, ``S[1]`` the discrete update, ``S[2]`` the
+outputs (with ``with_u`` = 0: what the error metrics read), ``S[3]`` the stiffness the
+components declare now (RK4: ``S[4]`` its step). Compiled, ``S`` is an int64 array of the
+addresses of their C entry points (numba ``cfunc``), called with the arrays' data pointers
+(``call_void``, ``call_float``; 0 for ``S[1]`` without ``HAS_UPDATE`` and ``S[3]`` without
+``HAS_STIFFNESS``: never called); on the pure-Python path (a user component numba cannot
+compile) it is a tuple of the composition's Python functions and ``ptr`` is the identity.
 
 Time handling (hybrid systems): no step straddles a noise sample instant k*noise_dt
 (the held noise jumps there) or a break point (``breaks``: the sorted instants where the
@@ -85,7 +84,7 @@ def _rhs(S, t, z, d, m, P, dz):
 
 @ijit
 def _update(S, t, z, d, m, P):
-    if S[1] != 0:  # (0: a composition without discrete logic, nothing to call)
+    if HAS_UPDATE:  # (a constant: a composition without discrete logic calls nothing)
         call_void(S[1], t, (ptr(z), ptr(d), ptr(m), ptr(P)))
 
 
@@ -105,7 +104,7 @@ def _errors(S, t, z, d, m, P, y, xh):
 
 @ijit
 def _stiffness(S, t, z, d, P):
-    if S[3] == 0:  # (0: no component declares its stiffness)
+    if not HAS_STIFFNESS:  # (a constant: no component declares its stiffness)
         return 0.0
     return call_float(S[3], t, (ptr(z), ptr(d), ptr(P)))
 
@@ -613,7 +612,7 @@ def integrate(S, z, d, P, noise, noise_dt, breaks, t_end, dt_out, h_max, rtol, a
                 z[i] = zt[i]
                 k1[i] = k_fsal[i]
             t = t_new
-            if S[1] != 0:  # (0: no discrete logic)
+            if HAS_UPDATE:  # (a constant of the generated header: no discrete logic, no code)
                 for i in range(nd):
                     dsave[i] = d[i]
                 _update(S, t, z, d, m, P)
