@@ -139,8 +139,8 @@ def test_only_types_another_process_rebuilds_equal_are_cached() -> None:
     rec = types.NamedTuple([types.float64, arr, types.int64],
                            record_class(("eps", "L", "n")))
     assert stable((types.float64, arr, rec))
-    named = KernelFunctionType("user.cube 0123 []")
-    closure = KernelFunctionType("user.scaled.<locals>.phi 0123 [] @140")
+    named = KernelFunctionType("user.cube 0123 []", True)
+    closure = KernelFunctionType("user.scaled.<locals>.phi 0123 [] @140", False)
     assert stable((types.NamedTuple([named], record_class(("phi",))),))
     assert not stable((types.NamedTuple([closure], record_class(("phi",))),))
     other = types.NamedTuple([types.float64], namedtuple("Other", ["eps"]))

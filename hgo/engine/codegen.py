@@ -601,8 +601,9 @@ def _function_constant(fn: object) -> object:
                                   src.__defaults__, src.__closure__)
         copy.__qualname__, copy.__module__ = src.__qualname__, src.__module__
         register_jitable(**options)(copy)
-        _CONSTANT_FUNCTIONS[key] = KernelFunction(
-            f"{_identity(src)[2:]} {_described(options)}", copy)
+        identity = _identity(src)
+        _CONSTANT_FUNCTIONS[key] = KernelFunction(f"{identity[2:]} {_described(options)}",
+                                                  copy, determined(identity))
     return _CONSTANT_FUNCTIONS[key]
 
 

@@ -83,8 +83,9 @@ class ComponentCache(FunctionCache):
 
 def stable(sig) -> bool:
     """Whether every argument type of ``sig`` (a tuple of types or a signature) is one a
-    later process rebuilds equal from numba's index: numbers, booleans, arrays, tuples of
-    those and hgo's record classes (importable by name) of those."""
+    later process rebuilds equal from numba's index: numbers, booleans, arrays, functions
+    named by their source, tuples of those and hgo's record classes (importable by name)
+    of those."""
     args = getattr(sig, "args", sig)
     return all(_stable_type(ty) for ty in args)
 

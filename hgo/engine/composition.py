@@ -258,8 +258,8 @@ def has_stiffness(system: System) -> bool:
 
 
 def work_length(system: System) -> int:
-    """Length of the work vector ``w`` the composed functions share with the integrator:
-    y, u and the estimate the controller reads."""
+    """Length of the work vector ``w``, each entry point's own scratch (``WORK``): y, u
+    and the estimate the controller reads."""
     plant, ctrl_obs = system.plant, system.controlled_observer()
     n_xc = 0 if ctrl_obs is None else len(system.observers[ctrl_obs].estimated_states)
     return len(plant.output_names) + len(plant.input_names) + n_xc

@@ -341,9 +341,10 @@ def run_seconds() -> Iterator[dict[str, float]]:
 class KernelFunction:
     """A function among a component's constants (a user's phi), as a compiled record holds
     it: a value of type :class:`KernelFunctionType`, named by ``key`` (the function's
-    module, name and a hash of its source, closure values and compile options; with ``@``
-    and its id if those do not determine it), that numba calls as ``function`` (a Python
-    function registered with ``register_jitable``).
+    module, name and a hash of its source, closure values and compile options), that numba
+    calls as ``function`` (a Python function registered with ``register_jitable``);
+    ``stable``: whether ``key`` names the same function in every process (not where the
+    source does not determine it, :func:`hgo.engine.codegen.determined`).
 
     Why not the function itself: its numba type (``Function`` of a template class numba
     makes on the fly) is rebuilt unequal in another process, so no component holding it
@@ -352,8 +353,8 @@ class KernelFunction:
     run time (a null pointer): a call is resolved when the component compiles.
     """
 
-    def __init__(self, key: str, function) -> None:
-        self.key, self.function = key, function
+    def __init__(self, key: str, function, stable: bool) -> None:
+        self.key, self.stable = key, stable
         _KERNEL_FUNCTIONS[key] = function
 
 
@@ -363,10 +364,8 @@ _KERNEL_FUNCTIONS: dict[str, object] = {}  # key -> the registered function (thi
 class KernelFunctionType(types.Callable, types.Opaque):
     """numba's type of a :class:`KernelFunction`: equal (and pickled) by its key alone."""
 
-    def __init__(self, key: str) -> None:
-        self.function_key = key
-        # the same in another process (see hgo.engine.codegen._identity)
-        self.stable = "@" not in key
+    def __init__(self, key: str, stable: bool) -> None:
+        self.function_key, self.stable = key, stable
         super().__init__(name=f"KernelFunction({key})")
 
     def _function_type(self, context):
@@ -386,7 +385,7 @@ class KernelFunctionType(types.Callable, types.Opaque):
 
 @typeof_impl.register(KernelFunction)
 def _typeof_kernel_function(value, c):
-    return KernelFunctionType(value.key)
+    return KernelFunctionType(value.key, value.stable)
 
 
 register_model(KernelFunctionType)(models.OpaqueModel)
