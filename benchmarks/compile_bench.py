@@ -13,8 +13,9 @@ figures), in turn:
   components;
 * **new**: with a new kernel cache holding the integrators (``hgo_integrator_*``, the
   tableau texts and numba's cache of them) and the compiled components
-  (``components/``, :mod:`hgo.engine.component_cache`), copied from the empty run's
-  folder: the composition is new, its integrator and hgo's components known, as after
+  (``components/``, :mod:`hgo.engine.component_cache`, with the texts of the bound
+  functions, ``hgo_bound_*``, that call them on their parameter slices), copied from the
+  empty run's folder: the composition is new, its integrator and hgo's components known, as after
   a change of an experiment's structure (another observer, noise on or off). The
   results of theory computations (``theory/``: DHLM's LMIs, ~1.5 s of cvxpy, not a
   compile) are copied too: measured before 2026-12-01 without them, dhlm_example's
@@ -80,10 +81,12 @@ def load() -> str:
 def known_only(cache: str, target: str, components: bool) -> None:
     """Copy the integrators of kernel cache ``cache`` (module texts, tableau texts, numba's
     cache files of the integrator modules), its theory results and, if ``components``,
-    its compiled components into the empty folder ``target``."""
+    its compiled components (and bound functions' texts) into the empty folder
+    ``target``."""
     for path in Path(cache).rglob("*"):
         folder = path.relative_to(cache).parts[0]
-        component = folder == "theory" or (components and folder == "components")
+        component = folder == "theory" or (components and (
+            folder == "components" or path.name.startswith("hgo_bound_")))
         if path.is_file() and (component or path.name.startswith(("hgo_integrator_",
                                                                     "hgo_tableau_"))):
             dest = Path(target) / path.relative_to(cache)

@@ -13,6 +13,7 @@ from scipy.linalg import expm
 
 from hgo.core.components import Params, Plant
 from hgo.engine.codegen import composition_source
+from hgo.engine.composition import Bound
 from hgo.engine.simulate import SolverSettings, no_noise, simulate, simulate_ensemble
 from hgo.engine.system import System
 from hgo.observers.triangular import triangular_hgo
@@ -66,19 +67,27 @@ def test_matrix_parameter_read_by_name_gives_the_exact_solution():
 
 
 def test_kernel_text_names_parameters_and_writes_constants_as_literals():
-    """The generated record reads each value from P at a constant offset, by name, and
-    holds the dimension as a literal and the function by its injected name."""
+    """Each component's function is called on the component's slice of P, where its
+    bound function's text reads each value at a constant offset, by name, and holds the
+    dimension as a literal and the function by its injected name."""
     text, functions = composition_source(System(linear_plant(phi=cube), [_observer()]))
-    bindings = "\n".join(line for line in text.splitlines() if " = _P" in line)
+    bound = {name: fn for name, fn in functions.items() if isinstance(fn, Bound)}
+    plant_f = next(name for name, fn in bound.items() if fn.functions["function"] is linear_f)
+    assert f"{plant_f}(t, view(z, 0, 2), view(w, 1, 1), view(P, 0, 6), view(dz, 0, 2))" in text
+    observer_f = next(name for name, fn in bound.items()
+                      if fn.functions["function"].__name__ == "f" and name != plant_f)
+    assert "view(P, 6, 17), view(dz, 2, 5))" in text.split(observer_f + "(", 1)[1]
 
-    def bound(field: str) -> bool:  # one keyword argument of a record's binding
-        return any(f"{before}{field}{after}" in bindings for before in "(, "
+    def reads(fn: Bound, field: str) -> bool:  # one keyword argument of the record
+        binding = next(line for line in fn.text.splitlines() if " = _P(" in line)
+        return any(f"{before}{field}{after}" in binding for before in "(, "
                    for after in ",)")
 
-    assert bound("A=view2(P, 0, 2, 2)") and bound("g=view(P, 4, 6)") and bound("n=2")
-    assert bound("law=0") and bound("K=view(P, 9, 11)")  # the observer's, after P[:6]
-    phi_name = next(k for k, fn in functions.items() if fn is cube)
-    assert bound(f"phi={phi_name}")
+    assert reads(bound[plant_f], "A=view2(P, 0, 2, 2)") and reads(bound[plant_f], "g=view(P, 4, 6)")
+    assert reads(bound[plant_f], "n=2") and reads(bound[plant_f], "phi=c_const_phi")
+    assert bound[plant_f].functions["c_const_phi"] is cube
+    # the observer's values at offsets into its own slice (P[6:17] of the whole)
+    assert reads(bound[observer_f], "law=0") and reads(bound[observer_f], "K=view(P, 3, 5)")
 
 
 def test_function_constant_is_called_by_the_kernel():

@@ -1,14 +1,20 @@
 """The composition of a :class:`~hgo.engine.system.System` as module text: what is compiled per
 experiment.
 
-The module holds each component's parameter record (read from the flat parameter vector
-``P`` at constant offsets), the composed functions the integrators call (``system_rhs``,
+The module holds the composed functions the integrators call (``system_rhs``,
 ``system_update``, ``system_outputs``, ``system_stiffness`` and RK4's ``system_rk4``: the
 components' functions on their slices of the flat vectors) and, for the compiled path,
 their C entry points ``c_rhs`` .. ``c_rk4``: the same functions taking the arrays'
 data pointers (lengths are constants of the module), compiled by :mod:`hgo.engine.codegen`
 as numba ``cfunc`` and handed to the integrator (:mod:`hgo.engine.kernel_template`) as
 function pointers. The integrator is compiled apart, once per method and layout.
+
+A component with named parameters is called through a :class:`Bound` function that gets
+the component's slice of the parameter vector ``P`` and builds its record there (values
+at constant offsets into the slice, constants as literals). Its text depends on the
+component alone, not on where the component sits in the composition, so it is compiled
+once and cached with the components: the entry points only pass slices, which is what
+keeps a new composition's compile short (issue 41).
 """
 
 from __future__ import annotations
@@ -16,6 +22,7 @@ from __future__ import annotations
 import dis
 import math
 import re
+from dataclasses import dataclass, field
 
 from hgo.core.components import no_update
 from hgo.engine.system import System
@@ -79,42 +86,109 @@ def _literal(value: object) -> str:
     return repr(value)
 
 
-def _records(system: System, names: dict) -> tuple[list[str], list[str], dict[str, str]]:
-    """The record of each component with named parameters (:class:`hgo.core.components.Params`):
-    its class; per component, the argument its functions get (the record's local name
-    ``p<k>``, or the positional view ``P[a:b]``); and each record's binding, read from the
-    flat vector P at constant offsets, with the constants as literals."""
-    lines, args, bindings = [], [], {}
-    for k, (comp, (a, b)) in enumerate(zip(_components(system), system.p_slices,
-                                           strict=True)):
-        spec = comp.params
-        if spec is None:
-            args.append(_v("P", a, b))
-            continue
-        fields, values = [], []
-        for name, shape, o in zip(spec.names, spec.shapes, spec.offsets, strict=True):
-            fields.append(name)
-            if not shape:
-                values.append(f"P[{a + o}]")
-            elif len(shape) == 1:
-                values.append(_v("P", a + o, a + o + shape[0]))
-            elif len(shape) == 2:
-                values.append(f"view2(P, {a + o}, {shape[0]}, {shape[1]})")
-            else:
-                raise ValueError(f"{comp.name}: parameter {name} has {len(shape)} dimensions; "
-                                 "at most 2 are supported")
-        for name, value in spec.constants.items():
-            fields.append(name)
-            if name == "scratch":  # scratch space on the caller's stack (hgo.engine.jit)
-                values.append(f"stack({value})")
-                continue
-            values.append(names["const"][(k, name)] if callable(value) else _literal(value))
-        lines += [f"# the parameters of {comp.name} by name",
-                  f"_P{k} = record_class({tuple(fields)!r})", ""]
-        bindings[f"p{k}"] = (f"    p{k} = _P{k}(" + ", ".join(
-            f"{name}={value}" for name, value in zip(fields, values, strict=True)) + ")")
-        args.append(f"p{k}")
-    return lines, args, bindings
+@dataclass(frozen=True)
+class Record:
+    """A component's parameter record (:class:`hgo.core.components.Params`), read from the
+    component's own slice ``P`` of the flat vector: its fields, each field's value as
+    kernel text (at a constant offset into that slice; constants as literals, a function
+    constant by its name ``c_const_<field>``) and those functions."""
+
+    fields: tuple[str, ...]
+    values: tuple[str, ...]
+    constants: dict = field(compare=False)
+
+
+@dataclass(frozen=True)
+class Bound:
+    """A component's function called on the component's own parameter slice: the module
+    text (:func:`bound_text`) whose function ``bound`` builds the record there and calls
+    it, and the functions that module is given (the component's function as
+    ``function``, function constants as ``c_const_<field>``). The same text for that
+    function and record in every composition, so its compiled code is cached once with
+    the components' (:mod:`hgo.engine.component_cache`): a new composition of known
+    components only compiles its entry points, which pass slices and call these."""
+
+    text: str
+    functions: dict = field(compare=False)
+
+
+def _record(comp, k: int) -> Record | None:
+    """Component ``comp``'s record (the ``k``-th component), or None (no named
+    parameters: its functions get the positional slice ``P[a:b]``)."""
+    spec = comp.params
+    if spec is None:
+        return None
+    fields, values = [], []
+    for name, shape, o in zip(spec.names, spec.shapes, spec.offsets, strict=True):
+        fields.append(name)
+        if not shape:
+            values.append(f"P[{o}]")
+        elif len(shape) == 1:
+            values.append(_v("P", o, o + shape[0]))
+        elif len(shape) == 2:
+            values.append(f"view2(P, {o}, {shape[0]}, {shape[1]})")
+        else:
+            raise ValueError(f"{comp.name}: parameter {name} has {len(shape)} dimensions; "
+                             "at most 2 are supported")
+    constants = {}
+    for name, value in spec.constants.items():
+        fields.append(name)
+        if name == "scratch":  # scratch space on the caller's stack (hgo.engine.jit)
+            values.append(f"stack({value})")
+        elif callable(value):
+            values.append(f"c_const_{name}")
+            constants[f"c_const_{name}"] = value
+        else:
+            values.append(_literal(value))
+    return Record(tuple(fields), tuple(values), constants)
+
+
+def bound_text(record: Record, n_args: int, at: int) -> str:
+    """The module text of a component's function (injected as ``function``) on its own
+    parameter slice: ``bound`` takes the function's ``n_args`` arguments with the slice
+    ``P`` in place of the record (argument ``at``), builds the record from it and calls
+    the function."""
+    args = [f"a{i}" if i != at else "P" for i in range(n_args)]
+    call = [f"a{i}" if i != at else "p" for i in range(n_args)]
+    binding = ", ".join(f"{name}={value}"
+                        for name, value in zip(record.fields, record.values, strict=True))
+    return "\n".join([
+        "import math", "", "from hgo.core.records import record_class", "",
+        f"_P = record_class({record.fields!r})", "", "",
+        f"def bound({', '.join(args)}):",
+        f"    p = _P({binding})",
+        f"    return function({', '.join(call)})", ""])
+
+
+class _Calls:
+    """The calls of a composition's functions: a component with a record gets its slice
+    of ``P`` and is called through its :class:`Bound` function (``b<k>_<name>``)."""
+
+    def __init__(self, system: System) -> None:
+        self.slices = system.p_slices
+        self.records = [_record(comp, k) for k, comp in enumerate(_components(system))]
+        self.bound: dict[str, Bound] = {}
+
+    def params(self, k: int) -> str:
+        """What component ``k``'s functions get for their parameters (a token for a
+        record, resolved by :meth:`call`)."""
+        return f"p{k}" if self.records[k] is not None else _v("P", *self.slices[k])
+
+    def call(self, name: str, fn: object, *args: str) -> str:
+        """The call ``name(*args)`` of the component function ``fn`` injected as ``name``,
+        through its :class:`Bound` function where an argument is a record's token."""
+        tokens = [k for k, a in enumerate(args) if re.fullmatch(r"p\d+", a)]
+        if not tokens:
+            return f"{name}({', '.join(args)})"
+        at, = tokens
+        k = int(args[at][1:])
+        bound_name = f"b{k}_{name[2:]}"
+        record = self.records[k]
+        self.bound[bound_name] = Bound(bound_text(record, len(args), at),
+                                       {"function": fn, **record.constants})
+        args = list(args)
+        args[at] = _v("P", *self.slices[k])
+        return f"{bound_name}({', '.join(args)})"
 
 
 # The composed functions, each written once as its body and emitted twice: on arrays
@@ -156,13 +230,10 @@ def scalars_of(name: str) -> str:
     return SCALARS.get(name, "t")
 
 
-def _function(name: str, body: list[str], bindings: dict[str, str]) -> list[str]:
-    """``system_<name>`` and ``c_<name>`` with ``body``, after the records it uses and the
-    work vector ``w`` if it uses it."""
-    text = "\n".join(body)
-    used = [line for local, line in bindings.items() if re.search(rf"\b{local}\b", text)]
-    if re.search(r"\bw\b", text):
-        used = [*WORK, *used]
+def _function(name: str, body: list[str]) -> list[str]:
+    """``system_<name>`` and ``c_<name>`` with ``body``, after the work vector ``w`` if it
+    uses it."""
+    used = WORK if re.search(r"\bw\b", "\n".join(body)) else []
     arrays, scalars = ARRAYS[name].split(), scalars_of(name)
     return ["", "", *(["@ijit"] if name in CALLED else []),
             f"def system_{name}({scalars}, {', '.join(arrays)}):", *used, *body,
@@ -170,22 +241,28 @@ def _function(name: str, body: list[str], bindings: dict[str, str]) -> list[str]
             *[f"    {a} = carray({a}_ptr, {LENGTHS[a]})" for a in arrays], *used, *body]
 
 
-def composition_text(system: System, names: dict, noisy: bool) -> str:
-    """The composition's module text (module doc): records, sizes, the entry points."""
+def composition_text(system: System, functions: dict[str, object], names: dict,
+                     noisy: bool) -> tuple[str, dict[str, Bound]]:
+    """The composition's module text (module doc): sizes, the entry points; and the
+    :class:`Bound` functions it calls by injected name (``functions``: injected name ->
+    component function, ``names``: the call names, :func:`_functions`)."""
     nx, ny, nu = system.plant.nx, len(system.plant.output_names), len(system.plant.input_names)
     zs, ds, xs = system.z_slices, system.d_slices, system.xh_slices
     ctrl_obs = system.controlled_observer()
     y, u = _v("w", 0, ny), _v("w", ny, ny + nu)
-    record_lines, p_args, bindings = _records(system, names)
+    calls = _Calls(system)
+
+    def call(name: str, *args: str) -> str:
+        return calls.call(name, functions[name], *args)
 
     def obs_args(k: int) -> tuple[str, str, str]:
-        return _v("z", *zs[k + 1]), _v("d", *ds[k]), p_args[k + 1]
+        return _v("z", *zs[k + 1]), _v("d", *ds[k]), calls.params(k + 1)
 
     def measure(with_u: bool) -> list[str]:
         """y = h(x) + m into w (a run without noise: y is h(x) itself, so the compiler can
         share what the plant and an observer compute of it, e.g. sin x1 and sin y); with
         the controller's input u when ``with_u``."""
-        lines = [f"    {names['plant_h']}(t, {_v('z', 0, nx)}, {p_args[0]}, {y})",
+        lines = ["    " + call(names["plant_h"], "t", _v("z", 0, nx), calls.params(0), y),
                  *([f"    for i in range({ny}):", "        w[i] += m[i]"] if noisy else
                    ["    # noiseless: y = h(x)"])]
         return lines + (control() if with_u else [])
@@ -198,28 +275,29 @@ def composition_text(system: System, names: dict, noisy: bool) -> str:
         xc = _v("w", ny + nu, work_length(system))
         lines = []
         if reads_estimate(system):  # (an open-loop input ignores the estimate)
-            lines.append(f"    {names['obs'][ctrl_obs][2]}(t, {zk}, {dk}, {pk}, {xc})")
-        return [*lines, f"    {names['ctrl']}(t, {xc}, {y}, {p_args[-1]}, {u})"]
+            lines.append("    " + call(names["obs"][ctrl_obs][2], "t", zk, dk, pk, xc))
+        ctrl = call(names["ctrl"], "t", xc, y, calls.params(len(calls.records) - 1), u)
+        return [*lines, "    " + ctrl]
 
     updates = [o.update for o in system.observers]
     # the update needs u only if some update reads it (u may cost a controller evaluation)
     update_u = ctrl_obs is not None and any(_reads(fn, 4) for fn in updates
                                             if fn is not no_update)
     rhs = [*measure(True),
-           f"    {names['plant_f']}(t, {_v('z', 0, nx)}, {u}, {p_args[0]}, "
-           f"{_v('dz', 0, nx)})"]
+           "    " + call(names["plant_f"], "t", _v("z", 0, nx), u, calls.params(0),
+                         _v("dz", 0, nx))]
     for k, (f, _, _) in enumerate(names["obs"]):
         zk, dk, pk = obs_args(k)
-        rhs.append(f"    {f}(t, {zk}, {dk}, {y}, {u}, {pk}, {_v('dz', *zs[k + 1])})")
+        rhs.append("    " + call(f, "t", zk, dk, y, u, pk, _v("dz", *zs[k + 1])))
     update = ["    return"]  # no discrete logic: nothing to evaluate between steps
     if has_discrete_update(system):
         update = measure(update_u)
         for k, (_, upd, _) in enumerate(names["obs"]):
             if updates[k] is not no_update:
                 zk, dk, pk = obs_args(k)
-                update.append(f"    {upd}(t, {zk}, {dk}, {y}, {u}, {pk})")
-    estimates = [f"    {est}(t, {', '.join(obs_args(k)[:2])}, {p_args[k + 1]}, "
-                 f"{_v('xh', *xs[k])})" for k, (_, _, est) in enumerate(names["obs"])]
+                update.append("    " + call(upd, "t", zk, dk, y, u, pk))
+    estimates = ["    " + call(est, "t", *obs_args(k), _v("xh", *xs[k]))
+                 for k, (_, _, est) in enumerate(names["obs"])]
     # with_u = 0: what the error metrics read, y and x^ only (their points cost no
     # controller evaluation; u is not written)
     outputs = [*measure(False), f"    for i in range({ny}):", "        y[i] = w[i]",
@@ -229,11 +307,9 @@ def composition_text(system: System, names: dict, noisy: bool) -> str:
     stiffness = ["    rho = 0.0"]  # the largest spectral radius declared *now* by hooks
     for k, fn in enumerate(names["stiff"]):
         if fn is not None:
-            zk, dk, pk = obs_args(k)
-            stiffness.append(f"    rho = max(rho, {fn}(t, {zk}, {dk}, {pk}))")
+            stiffness.append(f"    rho = max(rho, {call(fn, 't', *obs_args(k))})")
     stiffness.append("    return rho")
     lines = ["import math", "", "import numpy as np", "",
-             "from hgo.core.records import record_class", "", *record_lines, "",
              "# the lengths of the arrays the entry points get as pointers",
              f"NZ = {system.nz}", f"ND = {system.nd}", f"NY = {ny}", f"NU = {nu}",
              f"NP = {system.p_slices[-1][1]}", f"NXH = {system.nxh}",
@@ -243,8 +319,8 @@ def composition_text(system: System, names: dict, noisy: bool) -> str:
              f"HAS_STIFFNESS = {has_stiffness(system)}"]
     for name, body in zip(ENTRY_POINTS, (rhs, update, outputs, stiffness, RK4),
                           strict=True):
-        lines += _function(name, body, bindings)
-    return "\n".join(lines) + "\n"
+        lines += _function(name, body)
+    return "\n".join(lines) + "\n", calls.bound
 
 
 def has_discrete_update(system: System) -> bool:
