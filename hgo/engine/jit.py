@@ -25,7 +25,8 @@ from pathlib import Path
 
 import numba
 import numpy as np
-from numba.core import types
+from llvmlite import ir
+from numba.core import cgutils, types
 from numba.core.datamodel import models
 from numba.core.imputils import lower_constant
 from numba.extending import (
@@ -96,6 +97,34 @@ def record_helper(fn):
     return fn
 
 
+def _array_data(context, builder, aty, value):
+    """The data pointer of the array ``value`` of type ``aty``."""
+    return builder.extract_value(value, context.data_model_manager[aty].get_field_position("data"))
+
+
+def _array_value(context, builder, aty, data, shape, strides):
+    """A borrowed array of type ``aty`` on ``data`` (no meminfo, no parent), built as a
+    value field by field: numba's ``populate_array`` goes through a copy on the stack,
+    the same code once LLVM has promoted it to registers but several times the Python
+    work per view while lowering (a composition's entry points make dozens of views)."""
+    model = context.data_model_manager[aty]
+    intp = context.get_value_type(types.intp)
+    nitems = shape[0]
+    for extent in shape[1:]:
+        nitems = builder.mul(nitems, extent, flags=["nsw"])
+    itemsize = context.get_abi_sizeof(context.get_data_type(aty.dtype))
+    fields = {"nitems": nitems, "itemsize": ir.Constant(intp, itemsize), "data": data,
+              "shape": cgutils.pack_array(builder, shape, intp),
+              "strides": cgutils.pack_array(builder, strides, intp)}
+    value = ir.Constant(context.get_value_type(aty), ir.Undefined)
+    for k, name in enumerate(model._fields):
+        field = fields.get(name)
+        if field is None:  # meminfo, parent: null (borrowed)
+            field = ir.Constant(value.type.elements[k], None)
+        value = builder.insert_value(value, field, k)
+    return value
+
+
 @intrinsic
 def _borrowed_view(typingctx, arr, start, stop):
     if not (isinstance(arr, types.Array) and arr.ndim == 1 and arr.layout == "C"):
@@ -104,16 +133,12 @@ def _borrowed_view(typingctx, arr, start, stop):
 
     def codegen(context, builder, signature, args):
         aty, sty, ety = signature.args
-        src = arrayobj.make_array(aty)(context, builder, args[0])
         s = context.cast(builder, args[1], sty, types.intp)
         e = context.cast(builder, args[2], ety, types.intp)
-        out = arrayobj.make_array(ret)(context, builder)
-        itemsize = context.get_constant(
-            types.intp, context.get_abi_sizeof(context.get_data_type(aty.dtype)))
-        arrayobj.populate_array(out, data=builder.gep(src.data, [s]),
-                                shape=[builder.sub(e, s)], strides=[itemsize],
-                                itemsize=itemsize, meminfo=None)
-        return out._getvalue()
+        size = context.get_abi_sizeof(context.get_data_type(aty.dtype))
+        data = builder.gep(_array_data(context, builder, aty, args[0]), [s])
+        return _array_value(context, builder, ret, data, [builder.sub(e, s)],
+                            [ir.Constant(e.type, size)])
 
     return ret(arr, start, stop), codegen
 
@@ -128,16 +153,11 @@ def _borrowed_view2(typingctx, arr, start, rows, cols):
 
     def codegen(context, builder, signature, args):
         aty = signature.args[0]
-        src = arrayobj.make_array(aty)(context, builder, args[0])
         s, r, c = (context.cast(builder, v, t, types.intp)
                    for v, t in zip(args[1:], signature.args[1:], strict=True))
-        out = arrayobj.make_array(ret)(context, builder)
-        itemsize = context.get_constant(
-            types.intp, context.get_abi_sizeof(context.get_data_type(aty.dtype)))
-        arrayobj.populate_array(out, data=builder.gep(src.data, [s]), shape=[r, c],
-                                strides=[builder.mul(c, itemsize), itemsize],
-                                itemsize=itemsize, meminfo=None)
-        return out._getvalue()
+        size = ir.Constant(s.type, context.get_abi_sizeof(context.get_data_type(aty.dtype)))
+        data = builder.gep(_array_data(context, builder, aty, args[0]), [s])
+        return _array_value(context, builder, ret, data, [r, c], [builder.mul(c, size), size])
 
     return ret(arr, start, rows, cols), codegen
 
@@ -156,16 +176,11 @@ def _stack_array(typingctx, size):
     n = size.literal_value
 
     def codegen(context, builder, signature, args):
-        from numba.core import cgutils
-
         dtype = context.get_data_type(types.float64)
         count = context.get_constant(types.intp, n)
         data = cgutils.alloca_once(builder, dtype, size=count)
-        out = arrayobj.make_array(ret)(context, builder)
         itemsize = context.get_constant(types.intp, context.get_abi_sizeof(dtype))
-        arrayobj.populate_array(out, data=data, shape=[count], strides=[itemsize],
-                                itemsize=itemsize, meminfo=None)
-        return out._getvalue()
+        return _array_value(context, builder, ret, data, [count], [itemsize])
 
     return ret(size), codegen
 
