@@ -67,16 +67,18 @@ def test_matrix_parameter_read_by_name_gives_the_exact_solution():
 
 
 def test_kernel_text_names_parameters_and_writes_constants_as_literals():
-    """Each component's function is called on the component's slice of P, where its
-    bound function's text reads each value at a constant offset, by name, and holds the
-    dimension as a literal and the function by its injected name."""
+    """Each component's function is called on the addresses of its slices (of P: the
+    component's own), and its bound function's text reads each value of the record at a
+    constant offset into that slice, by name, and holds the dimension as a literal and
+    the function by its injected name."""
     text, functions = composition_source(System(linear_plant(phi=cube), [_observer()]))
     bound = {name: fn for name, fn in functions.items() if isinstance(fn, Bound)}
     plant_f = next(name for name, fn in bound.items() if fn.functions["function"] is linear_f)
-    assert f"{plant_f}(t, view(z, 0, 2), view(w, 1, 1), view(P, 0, 6), view(dz, 0, 2))" in text
+    assert f"{plant_f}(t, at(z, 0), at(w, 1), at(P, 0), at(dz, 0))" in text
     observer_f = next(name for name, fn in bound.items()
                       if fn.functions["function"].__name__ == "f" and name != plant_f)
-    assert "view(P, 6, 17), view(dz, 2, 5))" in text.split(observer_f + "(", 1)[1]
+    assert "at(P, 6), at(dz, 2))" in text.split(observer_f + "(", 1)[1]
+    assert "    P = carray(a3, 6)" in bound[plant_f].text.splitlines()
 
     def reads(fn: Bound, field: str) -> bool:  # one keyword argument of the record
         binding = next(line for line in fn.text.splitlines() if " = _P(" in line)

@@ -54,8 +54,10 @@ from hgo.engine.composition import (
     scalars_of,
 )
 from hgo.engine.jit import (
+    address_function,
     borrow_function,
     c_call_functions,
+    carray_function,
     pointer_function,
     stack_function,
     view2_function,
@@ -676,6 +678,7 @@ def _decorators(compiled: bool) -> dict[str, object]:
                 "view2": view2_function(False), "stack": stack_function(False),
                 "ijit": lambda fn: fn,
                 "ptr": pointer_function(False),
+                "at": address_function(False), "carray": carray_function(False),
                 **c_call_functions(False)}
     import numba
 
@@ -703,7 +706,8 @@ def _decorators(compiled: bool) -> dict[str, object]:
         "borrow": borrow_function(True),
         "ptr": pointer_function(True),
         **c_call_functions(True),
-        "carray": numba.carray,
+        "at": address_function(True),
+        "carray": carray_function(True),
     }
 
 

@@ -16,7 +16,7 @@ The entries live in hgo's kernel cache, in a folder named by a hash of
   numba's key ignores the options, so an entry compiled under others would be reused.
 
 Only signatures another process rebuilds equal are saved or loaded: numbers, arrays,
-tuples, functions named by their source (:class:`hgo.engine.jit.KernelFunction`) and
+data pointers (a bound function's arguments, :mod:`hgo.engine.composition`), tuples, functions named by their source (:class:`hgo.engine.jit.KernelFunction`) and
 hgo's record classes of those. A function its source and closure values do not determine
 (no source file, a closure value pickle cannot write), or a record holding one: compiled
 per process (still once for all the compositions of that process).
@@ -83,9 +83,9 @@ class ComponentCache(FunctionCache):
 
 def stable(sig) -> bool:
     """Whether every argument type of ``sig`` (a tuple of types or a signature) is one a
-    later process rebuilds equal from numba's index: numbers, booleans, arrays, functions
-    named by their source, tuples of those and hgo's record classes (importable by name)
-    of those."""
+    later process rebuilds equal from numba's index: numbers, booleans, arrays and data
+    pointers of those, functions named by their source, tuples of those and hgo's record
+    classes (importable by name) of those."""
     args = getattr(sig, "args", sig)
     return all(_stable_type(ty) for ty in args)
 
@@ -95,7 +95,7 @@ def _stable_type(ty) -> bool:
         return True
     if isinstance(ty, KernelFunctionType):
         return ty.stable
-    if isinstance(ty, types.Array):
+    if isinstance(ty, (types.Array, types.CPointer)):
         return isinstance(ty.dtype, (types.Number, types.Boolean))
     if isinstance(ty, types.BaseNamedTuple):
         cls = ty.instance_class

@@ -143,26 +143,32 @@ def _record(comp, k: int) -> Record | None:
     return Record(tuple(fields), tuple(values), constants)
 
 
-def bound_text(record: Record, n_args: int, at: int) -> str:
+def bound_text(record: Record, n_args: int, at: int, lengths: dict[int, int]) -> str:
     """The module text of a component's function (injected as ``function``) on its own
-    parameter slice: ``bound`` takes the function's ``n_args`` arguments with the slice
-    ``P`` in place of the record (argument ``at``), builds the record from it and calls
-    the function."""
-    args = [f"a{i}" if i != at else "P" for i in range(n_args)]
-    call = [f"a{i}" if i != at else "p" for i in range(n_args)]
+    parameter slice: ``bound`` takes the function's ``n_args`` arguments, the arrays among
+    them (``lengths``: argument -> length) as data pointers, the parameter slice ``P`` in
+    place of the record (argument ``at``); it makes the arrays of those pointers, builds
+    the record from ``P`` and calls the function."""
+    arrays = [f"    {'P' if i == at else f'x{i}'} = carray(a{i}, {n})"
+              for i, n in lengths.items()]
+    call = ["p" if i == at else f"x{i}" if i in lengths else f"a{i}" for i in range(n_args)]
     binding = ", ".join(f"{name}={value}"
                         for name, value in zip(record.fields, record.values, strict=True))
     return "\n".join([
         "import math", "", "from hgo.core.records import record_class", "",
         f"_P = record_class({record.fields!r})", "", "",
-        f"def bound({', '.join(args)}):",
+        f"def bound({', '.join(f'a{i}' for i in range(n_args))}):", *arrays,
         f"    p = _P({binding})",
         f"    return function({', '.join(call)})", ""])
 
 
+_VIEW = re.compile(r"view\((\w+), (\d+), (\d+)\)")
+
+
 class _Calls:
-    """The calls of a composition's functions: a component with a record gets its slice
-    of ``P`` and is called through its :class:`Bound` function (``b<k>_<name>``)."""
+    """The calls of a composition's functions: a component with a record is called
+    through its :class:`Bound` function (``b<k>_<name>``) on the addresses of its slices
+    (its slice of ``P`` for the record)."""
 
     def __init__(self, system: System) -> None:
         self.slices = system.p_slices
@@ -184,19 +190,26 @@ class _Calls:
         k = int(args[at][1:])
         bound_name = f"b{k}_{name[2:]}"
         record = self.records[k]
-        self.bound[bound_name] = Bound(bound_text(record, len(args), at),
+        passed, lengths = [], {}
+        for i, arg in enumerate(args):  # a view: its start's address, its length in the text
+            view = _VIEW.fullmatch(_v("P", *self.slices[k]) if i == at else arg)
+            if view is None:
+                passed.append(arg)
+                continue
+            passed.append(f"at({view[1]}, {view[2]})")
+            lengths[i] = int(view[3]) - int(view[2])
+        self.bound[bound_name] = Bound(bound_text(record, len(args), at, lengths),
                                        {"function": fn, **record.constants})
-        args = list(args)
-        args[at] = _v("P", *self.slices[k])
-        return f"{bound_name}({', '.join(args)})"
+        return f"{bound_name}({', '.join(passed)})"
 
 
 # The composed functions, each written once as its body and emitted twice: on arrays
 # (``system_<name>``, the pure-Python path) and as the C entry point ``c_<name>`` on the
 # data pointers the integrator passes (``carray``: no copy, no reference count; lengths
-# from the header). Every body is flat: the records it uses bound as locals at its top,
-# the measurement written out; only the components' own functions are called (and, in
-# the RK4 step, the composed right-hand side, update and stiffness, inlined).
+# from the header). Every body is flat: the measurement written out, the components'
+# functions called on slices (those with a record through their bound functions, on the
+# slices' addresses); in the RK4 step, the composed right-hand side, update and stiffness
+# (inlined).
 ARRAYS = {"rhs": "z d m P dz", "update": "z d m P", "outputs": "z d m P y u xh",
           "stiffness": "z d P", "rk4": "z d m P k1 k2 k3 k4 zt"}
 SCALARS = {"rk4": "t, h, t_lim, t_new", "outputs": "t, with_u"}  # (the others: t)

@@ -326,6 +326,41 @@ def c_call_functions(compiled: bool) -> dict:
     return {"call_void": _py_call, "call_float": _py_call}
 
 
+@intrinsic
+def _data_pointer_at(typingctx, arr, start):
+    """The address of ``arr[start]`` in a 1-D C-contiguous array: how a composition hands
+    a component's slices to its bound function (:mod:`hgo.engine.composition`), one
+    pointer an argument instead of an array's seven fields."""
+    if not (isinstance(arr, types.Array) and arr.ndim == 1 and arr.layout == "C"):
+        return None
+
+    def codegen(context, builder, signature, args):
+        aty, sty = signature.args
+        start = context.cast(builder, args[1], sty, types.intp)
+        return builder.gep(_array_data(context, builder, aty, args[0]), [start])
+
+    return types.CPointer(arr.dtype)(arr, start), codegen
+
+
+def _py_at(a, start):
+    return a[start:]
+
+
+def _py_carray(a, size):
+    return a[:size]
+
+
+def address_function(compiled: bool):
+    """``at(a, start)``: the address of ``a[start]``, or the view ``a[start:]`` in pure
+    Python (where ``carray``, :func:`carray_function`, cuts it to its length)."""
+    return _data_pointer_at if compiled else _py_at
+
+
+def carray_function(compiled: bool):
+    """``carray(pointer, size)``: numba's array on a data pointer, or ``a[:size]``."""
+    return numba.carray if compiled else _py_carray
+
+
 def pointer_function(compiled: bool):
     """``ptr(a)`` for generated integrators: ``a``'s data pointer, or ``a`` itself in pure
     Python (where the composition's functions take the arrays)."""
