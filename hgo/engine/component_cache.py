@@ -16,8 +16,9 @@ The entries live in hgo's kernel cache, in a folder named by a hash of
   numba's key ignores the options, so an entry compiled under others would be reused.
 
 Only signatures another process rebuilds equal are saved or loaded: numbers, arrays,
-data pointers (a bound function's arguments, :mod:`hgo.engine.composition`), tuples, functions named by their source (:class:`hgo.engine.jit.KernelFunction`) and
-hgo's record classes of those. A function its source and closure values do not determine
+data pointers (a bound function's arguments, :mod:`hgo.engine.composition`), tuples,
+functions named by their source (:class:`hgo.engine.jit.KernelFunction`) and hgo's
+record classes of those. A function its source and closure values do not determine
 (no source file, a closure value pickle cannot write), or a record holding one: compiled
 per process (still once for all the compositions of that process).
 """
