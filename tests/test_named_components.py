@@ -92,6 +92,27 @@ def test_kernel_text_names_parameters_and_writes_constants_as_literals():
     assert reads(bound[observer_f], "law=0") and reads(bound[observer_f], "K=view(P, 3, 5)")
 
 
+def test_a_component_at_another_offset_is_called_through_the_same_bound_function():
+    """Two observers of one structure (other gains), the second at a later offset of P:
+    one bound function text for both (it reads the observer's own slice, so the compiled
+    function is shared), and each estimate is that observer's run alone (to 1e-8: the
+    steps differ; rtol 1e-11)."""
+    first = _observer()
+    second = triangular_hgo("second", K=[3.0, 2.5], xhat0=[0.0, 0.0], r0=2.0,
+                            law="constant")
+    system = System(linear_plant(), [first, second])
+    text, functions = composition_source(system)
+    bound = [next(fn for name, fn in functions.items() if name.startswith(f"b{k}_obs_f"))
+             for k in (1, 2)]
+    assert bound[0].text == bound[1].text
+    assert "at(P, 6), at(dz, 2))" in text and "at(P, 17), at(dz, 5))" in text
+    both = simulate(system, SOLVER, no_noise(1))
+    for k, observer in enumerate((first, second)):
+        alone = simulate(System(linear_plant(), [observer]), SOLVER, no_noise(1))
+        assert np.abs(both.xh[:, 2 * k:2 * k + 2] - alone.xh).max() < 1e-8
+    assert np.abs(both.xh[:, :2] - both.xh[:, 2:]).max() > 1e-3  # (the gains matter)
+
+
 def test_function_constant_is_called_by_the_kernel():
     """x1' = x2 - x1^3 through p.phi = cube, against the same field in plain Python."""
     plant = linear_plant(A=[[0.0, 1.0], [-1.0, 0.0]], g=(-1.0, 0.0), phi=cube)
