@@ -42,8 +42,9 @@ def _components(system: System) -> list:
 def _functions(system: System) -> tuple[dict[str, object], dict]:
     """Injected name -> component function (one per distinct function), and the call names.
 
-    Functions among a component's constants (a user's phi, say) are injected too; the
-    ``"const"`` entry maps (component index, constant name) to their injected names."""
+    Functions among a component's constants (a user's phi, say) are named too (the
+    kernel's key names every function it runs: :func:`hgo.engine.codegen._layout_key`);
+    their bound functions get them (:class:`Bound`)."""
     named: dict[str, object] = {}
 
     def add(prefix: str, fn: object) -> str:
@@ -65,10 +66,11 @@ def _functions(system: System) -> tuple[dict[str, object], dict]:
         "stiff": [None if getattr(o, "stiffness", None) is None
                   else add("c_obs_stiff", o.stiffness) for o in system.observers],
         "ctrl": None if system.controller is None else add("c_ctrl_u", system.controller.u),
-        "const": {(k, name): add("c_const", value)
-                  for k, comp in enumerate(_components(system)) if comp.params is not None
-                  for name, value in comp.params.constants.items() if callable(value)},
     }
+    for comp in _components(system):
+        for value in (comp.params.constants.values() if comp.params is not None else ()):
+            if callable(value):
+                add("c_const", value)
     return named, calls
 
 
@@ -112,9 +114,9 @@ class Bound:
     functions: dict = field(compare=False)
 
 
-def _record(comp, k: int) -> Record | None:
-    """Component ``comp``'s record (the ``k``-th component), or None (no named
-    parameters: its functions get the positional slice ``P[a:b]``)."""
+def _record(comp) -> Record | None:
+    """Component ``comp``'s record, or None (no named parameters: its functions get the
+    positional slice ``P[a:b]``)."""
     spec = comp.params
     if spec is None:
         return None
@@ -172,7 +174,7 @@ class _Calls:
 
     def __init__(self, system: System) -> None:
         self.slices = system.p_slices
-        self.records = [_record(comp, k) for k, comp in enumerate(_components(system))]
+        self.records = [_record(comp) for comp in _components(system)]
         self.bound: dict[str, Bound] = {}
 
     def params(self, k: int) -> str:
