@@ -90,8 +90,10 @@ def test_an_announced_cfunc_compile_is_a_numba_compile_event() -> None:
     recorder = event.RecordingListener()
     with event.install_listener("numba:compile", recorder):
         cfunc.compile()
-    starts = [ev for _, ev in recorder.buffer if ev.is_start]
-    assert [ev.data["dispatcher"] for ev in starts] == [cfunc]
+    starts = [ev.data["dispatcher"] for _, ev in recorder.buffer if ev.is_start]
+    # the cfunc's compile, once and outermost (numba's own compile of carray's
+    # implementation nests in it in a process that has not compiled that yet)
+    assert starts[0] is cfunc and starts.count(cfunc) == 1
     out = np.zeros(1)
     call = numba.njit(lambda a, t, x: _call_void(a, t, (_data_pointer(x),)))
     call(np.int64(cfunc.address), 1.5, out)
