@@ -22,7 +22,7 @@ from __future__ import annotations
 import dis
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from hgo.core.components import no_update
 from hgo.engine.system import System
@@ -88,7 +88,7 @@ def _literal(value: object) -> str:
     return repr(value)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Record:
     """A component's parameter record (:class:`hgo.core.components.Params`), read from the
     component's own slice ``P`` of the flat vector: its fields, each field's value as
@@ -97,10 +97,10 @@ class Record:
 
     fields: tuple[str, ...]
     values: tuple[str, ...]
-    constants: dict = field(compare=False)
+    constants: dict
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Bound:
     """A component's function called on the component's own parameter slice: the module
     text (:func:`bound_text`) whose function ``bound`` builds the record there and calls
@@ -111,7 +111,7 @@ class Bound:
     components only compiles its entry points, which pass slices and call these."""
 
     text: str
-    functions: dict = field(compare=False)
+    functions: dict
 
 
 def _record(comp) -> Record | None:
@@ -152,7 +152,7 @@ def bound_text(record: Record, n_args: int, at: int, lengths: dict[int, int]) ->
     place of the record (argument ``at``); it makes the arrays of those pointers, builds
     the record from ``P`` and calls the function."""
     arrays = [f"    {'P' if i == at else f'x{i}'} = carray(a{i}, {n})"
-              for i, n in lengths.items()]
+              for i, n in sorted(lengths.items())]
     call = ["p" if i == at else f"x{i}" if i in lengths else f"a{i}" for i in range(n_args)]
     binding = ", ".join(f"{name}={value}"
                         for name, value in zip(record.fields, record.values, strict=True))
@@ -170,12 +170,13 @@ _VIEW = re.compile(r"view\((\w+), (\d+), (\d+)\)")
 class _Calls:
     """The calls of a composition's functions: a component with a record is called
     through its :class:`Bound` function (``b<k>_<name>``) on the addresses of its slices
-    (its slice of ``P`` for the record)."""
+    (its slice of ``P`` for the record). ``called``: injected name -> what the text calls
+    by that name (a component function, or a :class:`Bound` one)."""
 
     def __init__(self, system: System) -> None:
         self.slices = system.p_slices
         self.records = [_record(comp) for comp in _components(system)]
-        self.bound: dict[str, Bound] = {}
+        self.called: dict[str, object] = {}
 
     def params(self, k: int) -> str:
         """What component ``k``'s functions get for their parameters (a token for a
@@ -187,21 +188,25 @@ class _Calls:
         through its :class:`Bound` function where an argument is a record's token."""
         tokens = [k for k, a in enumerate(args) if re.fullmatch(r"p\d+", a)]
         if not tokens:
+            self.called[name] = fn
             return f"{name}({', '.join(args)})"
         at, = tokens
         k = int(args[at][1:])
         bound_name = f"b{k}_{name[2:]}"
         record = self.records[k]
-        passed, lengths = [], {}
+        a, b = self.slices[k]
+        passed, lengths = [], {at: b - a}
         for i, arg in enumerate(args):  # a view: its start's address, its length in the text
-            view = _VIEW.fullmatch(_v("P", *self.slices[k]) if i == at else arg)
-            if view is None:
+            view = _VIEW.fullmatch(arg)
+            if i == at:
+                passed.append(f"at(P, {a})")
+            elif view is None:
                 passed.append(arg)
-                continue
-            passed.append(f"at({view[1]}, {view[2]})")
-            lengths[i] = int(view[3]) - int(view[2])
-        self.bound[bound_name] = Bound(bound_text(record, len(args), at, lengths),
-                                       {"function": fn, **record.constants})
+            else:
+                passed.append(f"at({view[1]}, {view[2]})")
+                lengths[i] = int(view[3]) - int(view[2])
+        self.called[bound_name] = Bound(bound_text(record, len(args), at, lengths),
+                                        {"function": fn, **record.constants})
         return f"{bound_name}({', '.join(passed)})"
 
 
@@ -257,10 +262,10 @@ def _function(name: str, body: list[str]) -> list[str]:
 
 
 def composition_text(system: System, functions: dict[str, object], names: dict,
-                     noisy: bool) -> tuple[str, dict[str, Bound]]:
-    """The composition's module text (module doc): sizes, the entry points; and the
-    :class:`Bound` functions it calls by injected name (``functions``: injected name ->
-    component function, ``names``: the call names, :func:`_functions`)."""
+                     noisy: bool) -> tuple[str, dict[str, object]]:
+    """The composition's module text (module doc): sizes, the entry points; and what it
+    calls by injected name, component functions and :class:`Bound` ones (``functions``:
+    injected name -> component function, ``names``: the call names, :func:`_functions`)."""
     nx, ny, nu = system.plant.nx, len(system.plant.output_names), len(system.plant.input_names)
     zs, ds, xs = system.z_slices, system.d_slices, system.xh_slices
     ctrl_obs = system.controlled_observer()
@@ -335,7 +340,7 @@ def composition_text(system: System, functions: dict[str, object], names: dict,
     for name, body in zip(ENTRY_POINTS, (rhs, update, outputs, stiffness, RK4),
                           strict=True):
         lines += _function(name, body)
-    return "\n".join(lines) + "\n", calls.bound
+    return "\n".join(lines) + "\n", calls.called
 
 
 def has_discrete_update(system: System) -> bool:

@@ -267,7 +267,7 @@ def _data_pointer(typingctx, arr):
         return None
 
     def codegen(context, builder, signature, args):
-        return arrayobj.make_array(signature.args[0])(context, builder, args[0]).data
+        return _array_data(context, builder, signature.args[0], args[0])
 
     return types.CPointer(arr.dtype)(arr), codegen
 
