@@ -4,6 +4,7 @@
     python benchmarks/hand_bench.py --outputs     # DHLM, Moreno: outputs against steps
     python benchmarks/hand_bench.py --signals     # Moreno: the cost of recording u, y, x^
     python benchmarks/hand_bench.py --only=DHLM,Moreno   # those ratios alone
+    python benchmarks/hand_bench.py --composition  # DHLM, Moreno: boundary, integrator, components
 
 For each problem, hgo's whole in-process call as a user's script makes it (the system or
 experiment built once; then ``simulate(system, solver, noise)`` or
@@ -296,6 +297,56 @@ def outputs_split(reps: int = REPS) -> None:
               f"{ms[0] - ms[1]:.2f} / {ms[2] - ms[3]:.2f} | {g2 / h2:.2f} |")
 
 
+def composition_split(reps: int = REPS) -> None:
+    """``--composition``: where hgo / hand goes on DHLM and Moreno. Four calls, interleaved:
+    the hand kernel; the same with its right-hand side behind a C function pointer (the
+    call boundary hgo's integrator has); hgo's call with the composition written by hand
+    (``hand_composition``: hgo's integrator and call path, the problem's own right-hand
+    side, update and outputs); hgo's call. Each is checked against hgo's call (the
+    difference as in the ratio table)."""
+    from hand_composition import behind_pointer, hand_entry_points
+
+    from hgo.core.config import compose
+    from hgo.engine.codegen import load_kernel
+    from hgo.running.runner import build, run_experiment
+
+    print(f"\n## hgo / hand: the call boundary, the integrator, the components (CPU, "
+          f"medians of {reps} interleaved calls, as ratios to the hand kernel; load average "
+          f"{os.getloadavg()[0]:.2f})\n")
+    print("| problem | hand (ms) | hand, f behind a C pointer | hgo, composition by hand "
+          "| hgo | difference: pointer / composition by hand |")
+    print("|---|---|---|---|---|---|")
+    nz = DHLM_Z0.size
+    for name, overrides, (kernel, z0, width, *cols) in (
+            ("DHLM", DHLM, (dhlm_unrolled, DHLM_Z0, N_REC,
+                            [*range(nz), *range(nz + 2, N_REC)])),
+            ("Moreno", MORENO, (moreno_unrolled, MORENO_Z0, MORENO_REC))):
+        hgo, hand, _, _ = case_signals(overrides, kernel, z0, width, *cols)
+        pointer = case_signals(overrides, compile_kernel(behind_pointer(name)), z0, width,
+                               *cols)
+        exp = build(compose(overrides))
+        own = load_kernel(exp.system, True, exp.solver.method, noisy=False)
+        by_hand = hand_entry_points(own, name)
+
+        def hgo_by_hand(exp=exp, own=own, S=by_hand):
+            own.entry_points = lambda: S  # (the instance's, for this call: Kernel.function)
+            try:
+                return run_experiment(exp)
+            finally:
+                del own.entry_points
+
+        ref, mine = run_experiment(exp), hgo_by_hand()
+        ours, theirs = _record(ref), _record(mine)
+        if cols:
+            ours, theirs = ours[:, cols[0]], theirs[:, cols[0]]
+        diff = max(_rel_diff(theirs, ours), _rel_diff(mine.acc[None], ref.acc[None]))
+        times = [t for t, _ in interleaved_median_cpu([hand, pointer[1], hgo_by_hand, hgo],
+                                                      reps)]
+        print(f"| {name} | {times[0] * 1e3:.2f} | "
+              + " | ".join(f"{t / times[0]:.2f}" for t in times[1:])
+              + f" | {pointer[2]:.1e} / {diff:.1e} |")
+
+
 def signals_split(reps: int = REPS) -> None:
     """``--signals``: Moreno's call against ``hand_dop853``'s loop-over-arrays hand kernel
     recording the state only (the ratio line's yardstick before issue 41) and against the
@@ -390,6 +441,8 @@ if __name__ == "__main__":
         outputs_split()
     elif "--signals" in sys.argv:
         signals_split()
+    elif "--composition" in sys.argv:
+        composition_split()
     else:  # --only A,B,...: some problems alone
         picked = next((a.split("=", 1)[1] for a in sys.argv if a.startswith("--only=")), "")
         bench("--quick" in sys.argv, [k for k in picked.split(",") if k] or None)
