@@ -322,8 +322,8 @@ def composition_split(reps: int = REPS) -> None:
                             [*range(nz), *range(nz + 2, N_REC)])),
             ("Moreno", MORENO, (moreno_unrolled, MORENO_Z0, MORENO_REC))):
         hgo, hand, _, _ = case_signals(overrides, kernel, z0, width, *cols)
-        pointer = case_signals(overrides, compile_kernel(behind_pointer(name)), z0, width,
-                               *cols)
+        pointer = case_signals(overrides, compile_kernel(behind_pointer(name), cache=False), z0,
+                               width, *cols)
         exp = build(compose(overrides))
         own = load_kernel(exp.system, True, exp.solver.method, noisy=False)
         by_hand = hand_entry_points(own, name)

@@ -13,7 +13,8 @@ separates it from the hand kernel is the integrator (``hand_bench.py --compositi
 
 The other way round, :func:`behind_pointer` gives a hand kernel whose right-hand side is
 called through a C function pointer, as hgo's integrator calls its composition: what the
-call boundary alone costs.
+call boundary alone costs. The pointer is this process's address of a ``cfunc``, a
+constant in the kernel's code: compile it with ``compile_kernel(..., cache=False)``.
 
 Both problems run without noise (y = x1; ``m`` is 0 and is not read).
 """

@@ -326,10 +326,11 @@ def source(pb: Problem) -> str:
     return "\n".join(L) + "\n"
 
 
-def compile_kernel(pb: Problem):
+def compile_kernel(pb: Problem, cache: bool = True):
     """The kernel, from a module file of its text in hgo's kernel cache folder (named by the
     problem and the hash of the text, this file and ``hand_papers``), so that numba's
-    on-disk cache keeps it."""
+    on-disk cache keeps it (``cache=False``: compiled in each process, for a kernel whose
+    compiled code holds this process's addresses)."""
     here = Path(__file__).resolve().parent
     text = pb.header + "\n\n" + source(pb)
     digest = hashlib.sha256(text.encode() + (here / "hand_unrolled.py").read_bytes()
@@ -343,7 +344,7 @@ def compile_kernel(pb: Problem):
     module = importlib.util.module_from_spec(spec)
     sys.modules[path.stem] = module  # (numba's cache finds the function's module by name)
     spec.loader.exec_module(module)
-    return numba.njit(error_model="numpy", fastmath=FASTMATH, cache=True)(module.run)
+    return numba.njit(error_model="numpy", fastmath=FASTMATH, cache=cache)(module.run)
 
 
 # ---------------------------------------------------------------------- DHLM
