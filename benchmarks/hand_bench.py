@@ -5,6 +5,7 @@
     python benchmarks/hand_bench.py --signals     # Moreno: the cost of recording u, y, x^
     python benchmarks/hand_bench.py --only=DHLM,Moreno   # those ratios alone
     python benchmarks/hand_bench.py --composition  # DHLM, Moreno: boundary, integrator, components
+    python benchmarks/hand_bench.py --processes=5 [--only=...]  # the ratios of 5 fresh processes
 
 For each problem, hgo's whole in-process call as a user's script makes it (the system or
 experiment built once; then ``simulate(system, solver, noise)`` or
@@ -65,6 +66,8 @@ stages just below the jump and restart the step size after it, as hgo.)
 from __future__ import annotations
 
 import os
+import statistics
+import subprocess
 import sys
 import tempfile
 import time
@@ -435,6 +438,24 @@ def bench(quick: bool = False, only: list[str] | None = None) -> dict:
     return ratios
 
 
+def across_processes(n: int, only: list[str]) -> None:
+    """``--processes=N``: the ratio line of ``N`` fresh processes one after the other (each
+    its own interleaved medians, ``--only`` those problems), then per problem the median
+    and the range over the processes. On a shared machine one process's ratios move by up
+    to ~0.3 against another's of the same code (benchmarks/README, 2026-12-02)."""
+    runs = []
+    for k in range(n):
+        out = subprocess.run([sys.executable, __file__, f"--only={','.join(only)}"],
+                             capture_output=True, text=True, check=True).stdout
+        line = next(ln for ln in out.splitlines() if ln.startswith("hgo_over_hand:"))
+        print(f"process {k + 1} (load {os.getloadavg()[0]:.2f}): {line}")
+        runs.append({kv.split("=")[0]: float(kv.split("=")[1]) for kv in line.split()[1:]})
+    spread = {p: sorted(r[p] for r in runs) for p in only}
+    print("range: " + " ".join(f"{p}={v[0]:.2f}-{v[-1]:.2f}" for p, v in spread.items()))
+    print(f"hgo_over_hand (median of {n} processes): "
+          + " ".join(f"{p}={statistics.median(v):.2f}" for p, v in spread.items()))
+
+
 if __name__ == "__main__":
     t0 = time.perf_counter()
     if "--outputs" in sys.argv:
@@ -445,4 +466,10 @@ if __name__ == "__main__":
         composition_split()
     else:  # --only A,B,...: some problems alone
         picked = next((a.split("=", 1)[1] for a in sys.argv if a.startswith("--only=")), "")
-        bench("--quick" in sys.argv, [k for k in picked.split(",") if k] or None)
+        only = [k for k in picked.split(",") if k] or None
+        processes = next((int(a.split("=", 1)[1]) for a in sys.argv
+                          if a.startswith("--processes=")), 0)
+        if processes:
+            across_processes(processes, only or list(CASES))
+        else:
+            bench("--quick" in sys.argv, only)
