@@ -1,12 +1,13 @@
 """DHLM's and Moreno's compositions written by hand, for hgo's own integrator (issue 41).
 
-hgo's integrator calls the composition through C entry points (``S``, in the order of
-``hgo.engine.composition.ENTRY_POINTS``: the right-hand side, the discrete update, the
-outputs, ...; ``hgo.engine.kernel_template``). Here are the same entry points written the
-way the hand kernels write the problem (``hand_unrolled``): the right-hand side of
-``hand_papers`` (``dhlm_f``, ``moreno_f``: scalars, the constants as literals), the
-discrete update and the outputs, as numba ``cfunc`` with hgo's fast-math flags and hgo's C
-signatures. hgo's call run with them (:func:`hand_entry_points`) is hgo's whole call path
+hgo's integrator calls the composition through C entry points (``S``: one function,
+``c_system``, for the right-hand side, the discrete update and the outputs, which a
+selector picks; ``hgo.engine.composition.SELECT``, ``hgo.engine.kernel_template``). Here
+is the same entry point written the way the hand kernels write the problem
+(``hand_unrolled``): the right-hand side of ``hand_papers`` (``dhlm_f``, ``moreno_f``:
+scalars, the constants as literals), the
+discrete update and the outputs, as a numba ``cfunc`` with hgo's fast-math flags and hgo's
+C signature. hgo's call run with them (:func:`hand_entry_points`) is hgo's whole call path
 and integrator with the components' cost taken out: what separates it from hgo's own
 call is the generic components (records of parameters, matrices read at run time), what
 separates it from the hand kernel is the integrator (``hand_bench.py --composition``).
@@ -33,7 +34,7 @@ from hand_unrolled import DHLM, MORENO, Problem
 from numba import types
 
 from hgo.engine.codegen import FASTMATH, Kernel, _c_signature
-from hgo.engine.composition import ENTRY_POINTS
+from hgo.engine.composition import SELECT
 from hgo.engine.jit import c_call_functions, pointer_function
 
 _OPTIONS = {"fastmath": set(FASTMATH), "error_model": "numpy"}
@@ -44,61 +45,59 @@ def _cfunc(name: str):
     return numba.cfunc(_c_signature(name), **_OPTIONS)
 
 
+RHS, UPDATE, OUTPUTS = SELECT["rhs"], SELECT["update"], SELECT["outputs"]
+
+
 # ---------------------------------------------------------------------- DHLM
-@_cfunc("rhs")
-def dhlm_rhs(t, z, d, m, p, dz):
-    f = dhlm_f(t, z[0], z[1], z[2], z[3], z[4], z[5], z[6], z[7], z[8])
-    for i in range(9):
-        dz[i] = f[i]
-
-
-@_cfunc("update")
-def dhlm_update(t, z, d, m, p):
-    """The first and the last step end with the HGO saturated (``hand_unrolled.DHLM``)."""
-    if abs(z[2]) > DHLM_S or abs(z[3]) > DHLM_S:
-        if d[0] < 0.0:
-            d[0] = t
-        d[1] = t
-
-
-@_cfunc("outputs")
-def dhlm_outputs(t, with_u, z, d, m, p, y, u, xh):
-    y[0] = z[0]
-    if with_u != 0.0:
-        u[0] = 5.0 * (math.sin(2.0 * t) + math.cos(3.0 * t))
-    xh[0] = z[4]
-    xh[1] = z[5]
+@_cfunc("system")
+def dhlm_system(t, sel, z, d, m, p, a, b, c):
+    """DHLM's right-hand side (a = dz), discrete update (the first and the last step end
+    with the HGO saturated, ``hand_unrolled.DHLM``) and outputs (a, b, c = y, u, x^)."""
+    if sel == RHS:
+        f = dhlm_f(t, z[0], z[1], z[2], z[3], z[4], z[5], z[6], z[7], z[8])
+        for i in range(9):
+            a[i] = f[i]
+    elif sel == UPDATE:
+        if abs(z[2]) > DHLM_S or abs(z[3]) > DHLM_S:
+            if d[0] < 0.0:
+                d[0] = t
+            d[1] = t
+    else:
+        a[0] = z[0]
+        if sel != OUTPUTS:  # with_u
+            b[0] = 5.0 * (math.sin(2.0 * t) + math.cos(3.0 * t))
+        c[0] = z[4]
+        c[1] = z[5]
+    return 0.0
 
 
 # ---------------------------------------------------------------------- Moreno
-@_cfunc("rhs")
-def moreno_rhs(t, z, d, m, p, dz):
-    f = moreno_f(t, 0.0, z[0], z[1], z[2], z[3])
-    for i in range(4):
-        dz[i] = f[i]
+@_cfunc("system")
+def moreno_system(t, sel, z, d, m, p, a, b, c):
+    """Moreno's right-hand side (a = dz) and outputs (a, b, c = y, u, x^)."""
+    if sel == RHS:
+        f = moreno_f(t, 0.0, z[0], z[1], z[2], z[3])
+        for i in range(4):
+            a[i] = f[i]
+    else:
+        a[0] = z[0]
+        if sel != OUTPUTS:  # with_u
+            b[0] = moreno_u(t)
+        c[0] = z[2]
+        c[1] = z[3]
+    return 0.0
 
 
-@_cfunc("outputs")
-def moreno_outputs(t, with_u, z, d, m, p, y, u, xh):
-    y[0] = z[0]
-    if with_u != 0.0:
-        u[0] = moreno_u(t)
-    xh[0] = z[2]
-    xh[1] = z[3]
+HAND = {"DHLM": dhlm_system, "Moreno": moreno_system}
 
 
-HAND = {"DHLM": {"rhs": dhlm_rhs, "update": dhlm_update, "outputs": dhlm_outputs},
-        "Moreno": {"rhs": moreno_rhs, "outputs": moreno_outputs}}
-
-
-def hand_entry_points(kernel: Kernel, problem: str, only: tuple[str, ...] | None = None
-                      ) -> np.ndarray:
-    """``kernel``'s entry points with ``problem``'s hand-written ones (``only``: those of
-    them alone) in their places."""
+def hand_entry_points(kernel: Kernel, problem: str) -> np.ndarray:
+    """``kernel``'s entry points with ``problem``'s ``c_system`` written by hand in the
+    places of hgo's (the integrator's ``S[0]`` .. ``S[3]``, those it calls)."""
     S = np.array(kernel.entry_points(), np.int64)
-    for name, fn in HAND[problem].items():
-        if only is None or name in only:
-            S[ENTRY_POINTS.index(name)] = fn.address
+    for k in range(4):
+        if S[k]:
+            S[k] = HAND[problem].address
     return S
 
 

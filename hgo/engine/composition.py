@@ -4,10 +4,14 @@ experiment.
 The module holds the composed functions the integrators call (``system_rhs``,
 ``system_update``, ``system_outputs``, ``system_stiffness`` and RK4's ``system_rk4``: the
 components' functions on their slices of the flat vectors) and, for the compiled path,
-their C entry points ``c_rhs`` .. ``c_rk4``: the same functions taking the arrays'
-data pointers (lengths are constants of the module), compiled by :mod:`hgo.engine.codegen`
-as numba ``cfunc`` and handed to the integrator (:mod:`hgo.engine.kernel_template`) as
-function pointers. The integrator is compiled apart, once per method and layout.
+their C entry points: ``c_system``, the first four in one function that a selector
+``sel`` (:data:`SELECT`) picks from, and ``c_rk4``. They take the arrays' data pointers
+(lengths are constants of the module), are compiled by :mod:`hgo.engine.codegen` as numba
+``cfunc`` and handed to the integrator (:mod:`hgo.engine.kernel_template`) as function
+pointers; ``system_call`` is ``c_system`` on arrays, for the pure-Python path. One entry
+point instead of four: each ``cfunc`` is a numba compile and a cache entry of its own
+(DHLM's three took 0.57-0.71 s to compile against 0.40-0.58 s as one, fresh processes
+alternating). The integrator is compiled apart, once per method and layout.
 
 A component with named parameters is called through a :class:`Bound` function that gets
 the component's slice of the parameter vector ``P`` and builds its record there (values
@@ -218,9 +222,14 @@ class _Calls:
 # slices' addresses); in the RK4 step, the composed right-hand side, update and stiffness
 # (inlined).
 ARRAYS = {"rhs": "z d m P dz", "update": "z d m P", "outputs": "z d m P y u xh",
-          "stiffness": "z d P", "rk4": "z d m P k1 k2 k3 k4 zt"}
-SCALARS = {"rk4": "t, h, t_lim, t_new", "outputs": "t, with_u"}  # (the others: t)
-RETURNS_FLOAT = ("stiffness", "rk4")  # (the others return nothing)
+          "stiffness": "z d P", "rk4": "z d m P k1 k2 k3 k4 zt", "system": "z d m P a b c"}
+SCALARS = {"rk4": "t, h, t_lim, t_new", "outputs": "t, with_u", "system": "t, sel"}
+RETURNS_FLOAT = ("stiffness", "rk4", "system")  # (the others return nothing)
+SELECT = {"rhs": 0.0, "update": 1.0, "stiffness": 2.0, "outputs": 3.0}
+"""``c_system``'s selector ``sel`` of each function; the outputs' is 3 + with_u. Its arrays
+``a, b, c``: dz for the right-hand side, y, u, x^ for the outputs (unused ones: any
+pointer, never read)."""
+C_SYSTEM = ("rhs", "update", "stiffness", "outputs")  # c_system's branches, in this order
 LENGTHS = {"z": "NZ", "d": "ND", "m": "NY", "P": "NP", "dz": "NZ", "y": "NY",
            "u": "NU", "xh": "NXH", "k1": "NZ", "k2": "NZ", "k3": "NZ", "k4": "NZ", "zt": "NZ"}
 # called by the RK4 step (compiled into it): the others are only entry points
@@ -251,14 +260,50 @@ def scalars_of(name: str) -> str:
 
 
 def _function(name: str, body: list[str]) -> list[str]:
-    """``system_<name>`` and ``c_<name>`` with ``body``, after the work vector ``w`` if it
-    uses it."""
-    used = WORK if re.search(r"\bw\b", "\n".join(body)) else []
+    """``system_<name>`` with ``body``, after the work vector ``w`` if it uses it (and RK4's
+    step also as its C entry point ``c_rk4``)."""
+    used = _work(body)
     arrays, scalars = ARRAYS[name].split(), scalars_of(name)
-    return ["", "", *(["@ijit"] if name in CALLED else []),
-            f"def system_{name}({scalars}, {', '.join(arrays)}):", *used, *body,
-            "", "", f"def c_{name}({scalars}, {', '.join(a + '_ptr' for a in arrays)}):",
+    lines = ["", "", *(["@ijit"] if name in CALLED else []),
+             f"def system_{name}({scalars}, {', '.join(arrays)}):", *used, *body]
+    if name != "rk4":
+        return lines
+    return [*lines, "", "", f"def c_rk4({scalars}, {', '.join(a + '_ptr' for a in arrays)}):",
             *[f"    {a} = carray({a}_ptr, {LENGTHS[a]})" for a in arrays], *used, *body]
+
+
+def _work(body: list[str]) -> list[str]:
+    return WORK if re.search(r"\bw\b", "\n".join(body)) else []
+
+
+# c_system's branch of each function: its arrays from a, b, c, then its body
+_ARGUMENTS = {"rhs": ["dz = carray(a_ptr, NZ)"], "update": [], "stiffness": [],
+              "outputs": [f"with_u = sel - {SELECT['outputs']!r}", "y = carray(a_ptr, NY)",
+                          "u = carray(b_ptr, NU)", "xh = carray(c_ptr, NXH)"]}
+
+
+def _c_system(bodies: dict[str, list[str]], called: set[str]) -> list[str]:
+    """``c_system`` (the ``called`` functions, each body written in its branch: one numba
+    function, not one more per function) and ``system_call``, the same on arrays."""
+    names = [n for n in C_SYSTEM if n in called]
+    lines = ["", "", "def c_system(t, sel, z_ptr, d_ptr, m_ptr, P_ptr, a_ptr, b_ptr, c_ptr):",
+             *[f"    {a} = carray({a}_ptr, {LENGTHS[a]})" for a in ("z", "d", "m", "P")]]
+    for k, name in enumerate(names):
+        test = ("else:" if k == len(names) - 1 else
+                f"{'if' if k == 0 else 'elif'} sel == {SELECT[name]!r}:")
+        body = [*_work(bodies[name]), *bodies[name]]
+        lines += [f"    {test}  # {name}", *[f"        {a}" for a in _ARGUMENTS[name]],
+                  *["    " + line for line in body]]
+    python = ["", "", "def system_call(t, sel, z, d, m, P, a, b, c):",
+              "    \"\"\"c_system on arrays (the pure-Python path).\"\"\""]
+    calls = {"rhs": "system_rhs(t, z, d, m, P, a)", "update": "system_update(t, z, d, m, P)",
+             "stiffness": "return system_stiffness(t, z, d, P)",
+             "outputs": f"system_outputs(t, sel - {SELECT['outputs']!r}, z, d, m, P, a, b, c)"}
+    for k, name in enumerate(names):
+        test = ("else:" if k == len(names) - 1 else
+                f"{'if' if k == 0 else 'elif'} sel == {SELECT[name]!r}:")
+        python += [f"    {test}", f"        {calls[name]}"]
+    return [*lines, "    return 0.0", *python, "    return 0.0"]
 
 
 def composition_text(system: System, functions: dict[str, object], names: dict,
@@ -337,10 +382,18 @@ def composition_text(system: System, functions: dict[str, object], names: dict,
              "# which entry points the integrator calls (the others: address 0)",
              f"HAS_UPDATE = {has_discrete_update(system)}",
              f"HAS_STIFFNESS = {has_stiffness(system)}"]
-    for name, body in zip(ENTRY_POINTS, (rhs, update, outputs, stiffness, RK4),
-                          strict=True):
+    bodies = dict(zip(ENTRY_POINTS, (rhs, update, outputs, stiffness, RK4), strict=True))
+    for name, body in bodies.items():
         lines += _function(name, body)
+    called = {"rhs", "outputs"} | ({"update"} if has_discrete_update(system) else set()) \
+        | ({"stiffness"} if has_stiffness(system) else set())
+    lines += _c_system(bodies, called)
     return "\n".join(lines) + "\n", calls.called
+
+
+def selector_constants() -> str:
+    """``c_system``'s selectors as the integrator's constants ``SEL_RHS`` .. (:data:`SELECT`)."""
+    return "".join(f"SEL_{name.upper()} = {value!r}\n" for name, value in SELECT.items()) + "\n"
 
 
 def has_discrete_update(system: System) -> bool:

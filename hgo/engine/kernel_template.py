@@ -13,11 +13,13 @@ cached; it knows nothing else of the composition. The composition (plant, observ
 controller: :mod:`hgo.engine.composition`) comes in at run time as ``S``, the functions it
 is called through: ``S[0]`` the right-hand side, ``S[1]`` the discrete update, ``S[2]`` the
 outputs (with ``with_u`` = 0: what the error metrics read), ``S[3]`` the stiffness the
-components declare now (RK4: ``S[4]`` its step). Compiled, ``S`` is an int64 array of the
-addresses of their C entry points (numba ``cfunc``), called with the arrays' data pointers
-(``call_void``, ``call_float``; 0 for ``S[1]`` without ``HAS_UPDATE`` and ``S[3]`` without
-``HAS_STIFFNESS``: never called); on the pure-Python path (a user component numba cannot
-compile) it is a tuple of the composition's Python functions and ``ptr`` is the identity.
+components declare now (RK4: ``S[4]`` its step). Compiled, ``S`` is an int64 array of
+addresses of C entry points (numba ``cfunc``): ``S[0]`` .. ``S[3]`` the same one,
+``c_system``, which a selector (``SEL_*``) points to the function asked for, called with
+the arrays' data pointers (``call_void``, ``call_float``; 0 for ``S[1]`` without
+``HAS_UPDATE`` and ``S[3]`` without ``HAS_STIFFNESS``: never called); on the pure-Python
+path (a user component numba cannot compile) it is a tuple of the composition's Python
+functions and ``ptr`` is the identity.
 
 Time handling (hybrid systems): no step straddles a noise sample instant k*noise_dt
 (the held noise jumps there) or a break point (``breaks``: the sorted instants where the
@@ -74,39 +76,42 @@ import math
 import numpy as np
 
 
-# The composition's functions, called through ``S`` (module doc): C entry points at
-# the addresses ``S[k]``, taking the arrays' data (``ptr``) in a compiled kernel; the Python
-# functions themselves (``ptr`` the identity) on the pure-Python path.
+# The composition's functions, called through ``S`` (module doc): ``S[0]`` .. ``S[3]`` the
+# address of one C entry point (``c_system``) taking a selector (``SEL_*``, constants of
+# the header) and three arrays ``a, b, c`` (dz; or y, u, x^; the unused ones: any array,
+# never read), called with the arrays' data (``ptr``); its Python twin ``system_call`` on
+# the pure-Python path (``ptr`` the identity).
 @ijit
 def _rhs(S, t, z, d, m, P, dz):
-    call_void(S[0], t, (ptr(z), ptr(d), ptr(m), ptr(P), ptr(dz)))
+    call_float(S[0], (t, SEL_RHS), (ptr(z), ptr(d), ptr(m), ptr(P), ptr(dz), ptr(dz), ptr(dz)))
 
 
 @ijit
 def _update(S, t, z, d, m, P):
     if HAS_UPDATE:  # (a constant: a composition without discrete logic calls nothing)
-        call_void(S[1], t, (ptr(z), ptr(d), ptr(m), ptr(P)))
+        call_float(S[1], (t, SEL_UPDATE), (ptr(z), ptr(d), ptr(m), ptr(P), ptr(z), ptr(z),
+                                           ptr(z)))
 
 
 @ijit
 def _outputs(S, t, z, d, m, P, y, u, xh):
-    call_void(S[2], (t, 1.0),
-              (ptr(z), ptr(d), ptr(m), ptr(P), ptr(y), ptr(u), ptr(xh)))
+    call_float(S[2], (t, SEL_OUTPUTS + 1.0),
+               (ptr(z), ptr(d), ptr(m), ptr(P), ptr(y), ptr(u), ptr(xh)))
 
 
 @ijit
 def _errors(S, t, z, d, m, P, y, xh):
     # the outputs without the controller's input (with_u = 0: u is neither computed nor
     # written; y stands in for its pointer, which is never accessed)
-    call_void(S[2], (t, 0.0),
-              (ptr(z), ptr(d), ptr(m), ptr(P), ptr(y), ptr(y), ptr(xh)))
+    call_float(S[2], (t, SEL_OUTPUTS), (ptr(z), ptr(d), ptr(m), ptr(P), ptr(y), ptr(y), ptr(xh)))
 
 
 @ijit
 def _stiffness(S, t, z, d, P):
     if not HAS_STIFFNESS:  # (a constant: no component declares its stiffness)
         return 0.0
-    return call_float(S[3], t, (ptr(z), ptr(d), ptr(P)))
+    return call_float(S[3], (t, SEL_STIFFNESS), (ptr(z), ptr(d), ptr(z), ptr(P), ptr(z),
+                                                 ptr(z), ptr(z)))
 
 
 @ijit
