@@ -5,7 +5,7 @@
     python benchmarks/hand_bench.py --signals     # Moreno: the cost of recording u, y, x^
     python benchmarks/hand_bench.py --only=DHLM,Moreno   # those ratios alone
     python benchmarks/hand_bench.py --composition  # DHLM, Moreno: boundary, integrator, components
-    python benchmarks/hand_bench.py --processes=5 [--only=...]  # the ratios of 5 fresh processes
+    python benchmarks/hand_bench.py --processes=5 [--only=...] [--pin]  # 5 fresh processes
 
 For each problem, hgo's whole in-process call as a user's script makes it (the system or
 experiment built once; then ``simulate(system, solver, noise)`` or
@@ -65,6 +65,7 @@ stages just below the jump and restart the step size after it, as hgo.)
 
 from __future__ import annotations
 
+import functools
 import os
 import statistics
 import subprocess
@@ -438,23 +439,27 @@ def bench(quick: bool = False, only: list[str] | None = None) -> dict:
     return ratios
 
 
-def across_processes(n: int, only: list[str]) -> None:
+def across_processes(n: int, only: list[str], pin: bool = False) -> None:
     """``--processes=N``: the ratio line of ``N`` fresh processes one after the other (each
     its own interleaved medians, ``--only`` those problems), then per problem the median
     and the range over the processes. On a shared machine one process's ratios move by up
-    to ~0.3 against another's of the same code (benchmarks/README, 2026-12-02)."""
+    to ~0.3 against another's of the same code (benchmarks/README, 2026-12-02). ``--pin``:
+    each process on one CPU (process k on CPU k mod the CPUs this one may use)."""
+    cpus = sorted(os.sched_getaffinity(0)) if pin else []
     runs = []
     for k in range(n):
+        cpu = cpus[k % len(cpus)] if pin else None
+        where = {"preexec_fn": functools.partial(os.sched_setaffinity, 0, {cpu})} if pin else {}
         out = subprocess.run([sys.executable, __file__, f"--only={','.join(only)}"],
-                             capture_output=True, text=True, check=True).stdout
+                             capture_output=True, text=True, check=True, **where).stdout
         line = next(ln for ln in out.splitlines() if ln.startswith("hgo_over_hand:"))
-        print(f"process {k + 1} (load {os.getloadavg()[0]:.2f}): {line}")
+        on = f", CPU {cpu}" if pin else ""
+        print(f"process {k + 1} (load {os.getloadavg()[0]:.2f}{on}): {line}")
         runs.append({kv.split("=")[0]: float(kv.split("=")[1]) for kv in line.split()[1:]})
     spread = {p: sorted(r[p] for r in runs) for p in only}
     print("range: " + " ".join(f"{p}={v[0]:.2f}-{v[-1]:.2f}" for p, v in spread.items()))
-    print(f"hgo_over_hand (median of {n} processes): "
+    print(f"hgo_over_hand (median of {n} processes{', pinned' if pin else ''}): "
           + " ".join(f"{p}={statistics.median(v):.2f}" for p, v in spread.items()))
-
 
 if __name__ == "__main__":
     t0 = time.perf_counter()
@@ -470,6 +475,6 @@ if __name__ == "__main__":
         processes = next((int(a.split("=", 1)[1]) for a in sys.argv
                           if a.startswith("--processes=")), 0)
         if processes:
-            across_processes(processes, only or list(CASES))
+            across_processes(processes, only or list(CASES), "--pin" in sys.argv)
         else:
             bench("--quick" in sys.argv, only)
