@@ -286,22 +286,20 @@ def _c_system(bodies: dict[str, list[str]], called: set[str]) -> list[str]:
     """``c_system`` (the ``called`` functions, each body written in its branch: one numba
     function, not one more per function) and ``system_call``, the same on arrays."""
     names = [n for n in C_SYSTEM if n in called]
-    lines = ["", "", "def c_system(t, sel, z_ptr, d_ptr, m_ptr, P_ptr, a_ptr, b_ptr, c_ptr):",
-             *[f"    {a} = carray({a}_ptr, {LENGTHS[a]})" for a in ("z", "d", "m", "P")]]
-    for k, name in enumerate(names):
-        test = ("else:" if k == len(names) - 1 else
-                f"{'if' if k == 0 else 'elif'} sel == {SELECT[name]!r}:")
-        body = [*_work(bodies[name]), *bodies[name]]
-        lines += [f"    {test}  # {name}", *[f"        {a}" for a in _ARGUMENTS[name]],
-                  *["    " + line for line in body]]
-    python = ["", "", "def system_call(t, sel, z, d, m, P, a, b, c):",
+    tests = [f"{'if' if k == 0 else 'elif'} sel == {SELECT[name]!r}:"
+             for k, name in enumerate(names[:-1])] + ["else:"]
+    arrays = ARRAYS["system"].split()
+    lines = ["", "", f"def c_system({scalars_of('system')}, "
+                     f"{', '.join(a + '_ptr' for a in arrays)}):",
+             *[f"    {a} = carray({a}_ptr, {LENGTHS[a]})" for a in arrays[:4]]]
+    python = ["", "", f"def system_call({scalars_of('system')}, {', '.join(arrays)}):",
               "    \"\"\"c_system on arrays (the pure-Python path).\"\"\""]
     calls = {"rhs": "system_rhs(t, z, d, m, P, a)", "update": "system_update(t, z, d, m, P)",
              "stiffness": "return system_stiffness(t, z, d, P)",
              "outputs": f"system_outputs(t, sel - {SELECT['outputs']!r}, z, d, m, P, a, b, c)"}
-    for k, name in enumerate(names):
-        test = ("else:" if k == len(names) - 1 else
-                f"{'if' if k == 0 else 'elif'} sel == {SELECT[name]!r}:")
+    for test, name in zip(tests, names, strict=True):
+        lines += [f"    {test}  # {name}", *[f"        {a}" for a in _ARGUMENTS[name]],
+                  *["    " + line for line in [*_work(bodies[name]), *bodies[name]]]]
         python += [f"    {test}", f"        {calls[name]}"]
     return [*lines, "    return 0.0", *python, "    return 0.0"]
 
