@@ -72,6 +72,42 @@ def test_split_run_is_each_observer_run_alone():
             np.testing.assert_array_equal(split.u, alone.u)
 
 
+def test_interrupted_split_run_keeps_the_parts_run_and_leaves_the_others_nan(monkeypatch):
+    """A Ctrl-C during the first observer's part (its run returned status 6 after half of
+    the output samples): the second part is not run, the merged run is interrupted at the
+    first part's stop with its samples, and the second observer's z, d, x^ and metrics are
+    NaN, not zeros or another run's values."""
+    import hgo.engine.simulate as sim
+
+    system, noise = _open_loop(), _noise()
+    full = simulate(system, _solver(True), noise)
+    k = len(full.t) // 2
+    real, parts_run = sim.simulate, []
+
+    def interrupted_halfway(part_system, *args):
+        run = real(part_system, *args)
+        parts_run.append(part_system)
+        return dataclasses.replace(
+            run, t=run.t[:k], z=run.z[:k], d=run.d[:k], y=run.y[:k], m=run.m[:k],
+            u=run.u[:k], xh=run.xh[:k], status=sim.INTERRUPTED, t_stop=float(run.t[k - 1]))
+
+    monkeypatch.setattr(sim, "simulate", interrupted_halfway)  # (the parts' calls only)
+    split = simulate(system, _solver(True), noise)
+    assert len(parts_run) == 1
+    assert split.status == sim.INTERRUPTED and split.t_stop == full.t[k - 1]
+    np.testing.assert_array_equal(split.t, full.t[:k])
+    (za, zb), (da, db), (xa, xb) = system.z_slices[1], system.d_slices[0], system.xh_slices[0]
+    first = np.r_[0:system.plant.nx, za:zb]
+    np.testing.assert_array_equal(split.z[:, first], full.z[:k, first])
+    np.testing.assert_array_equal(split.d[:, da:db], full.d[:k, da:db])
+    np.testing.assert_array_equal(split.xh[:, xa:xb], full.xh[:k, xa:xb])
+    (za, zb), (da, db), (xa, xb) = system.z_slices[2], system.d_slices[1], system.xh_slices[1]
+    assert np.isnan(split.z[:, za:zb]).all() and np.isnan(split.d[:, da:db]).all()
+    assert np.isnan(split.xh[:, xa:xb]).all()
+    n_xh, n_obs = system.nxh, len(system.observers)
+    assert np.isnan(split.acc[np.r_[xa:xb, n_xh + 1, n_xh + n_obs + 1]]).all()
+
+
 def test_split_ensemble_members_equal_split_single_runs():
     """An ensemble (two initial states) split per observer: each member's metrics and
     recorded states equal its split single run."""
