@@ -4,6 +4,7 @@ numba failure names the function it failed on with numba's first error line."""
 
 from __future__ import annotations
 
+import json
 import logging
 
 import numba
@@ -62,6 +63,48 @@ def test_a_compile_says_what_it_compiles(caplog):
     assert len(said) == 1
     assert said[0].startswith("compiling the kernel of plant vdp with observers std with "
                               "dop853 (once: later runs load it from the kernel cache")
+
+
+def _integrate():
+    """Stands for a generated integrator's ``integrate`` in a compile event."""
+
+
+def test_the_composition_and_the_integrator_each_have_their_own_compile_time(
+        caplog, monkeypatch, tmp_path):
+    """A composition compiled with its integrator: one line for each (the integrator's
+    names its size), and each part's time kept under its own key; the next compile of a
+    composition alone quotes the composition's last time, not the integrator's."""
+    import time
+    import types
+
+    from numba.core.event import end_event, start_event
+
+    from hgo.running.progress import compile_progress
+
+    monkeypatch.setenv("HGO_CACHE_DIR", str(tmp_path))
+    module = {"__name__": "hgo_integrator_0123", "NZ": 6}
+    integrator = types.SimpleNamespace(py_func=types.FunctionType(_integrate.__code__, module))
+
+    def compile_for(seconds: float, dispatcher=None) -> None:
+        start_event("numba:compile", data={"dispatcher": dispatcher})
+        time.sleep(seconds)
+        end_event("numba:compile", data={"dispatcher": dispatcher})
+
+    what = "the kernel of plant vdp with observers std"
+    with caplog.at_level(logging.INFO, logger="hgo.running.progress"):
+        with compile_progress("dop853", what):
+            compile_for(0.3)
+            compile_for(0.6, integrator)
+        said = [r.getMessage() for r in caplog.records]
+        assert [line.split(" (once")[0] for line in said] == [
+            f"compiling {what} with dop853", "compiling the integrator for 6 states with dop853"]
+        times = json.loads((tmp_path / "compile_seconds.json").read_text())
+        assert 0.3 <= times["dop853 composition"] < 0.6 <= times["dop853 integrator"]
+        caplog.clear()
+        with compile_progress("dop853", what):
+            compile_for(0.3)
+        said = caplog.records[0].getMessage()
+        assert said.endswith(f"about {times['dop853 composition']:.1f} s last time)"), said
 
 
 class _Gains:
