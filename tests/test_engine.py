@@ -11,7 +11,14 @@ from scipy.integrate import solve_ivp
 
 from hgo.core.components import Observer, Plant
 from hgo.engine import codegen, tableau
-from hgo.engine.simulate import Noise, SolverSettings, no_noise, simulate, simulate_ensemble
+from hgo.engine.simulate import (
+    INTERRUPTED,
+    Noise,
+    SolverSettings,
+    no_noise,
+    simulate,
+    simulate_ensemble,
+)
 from hgo.engine.system import System
 from hgo.observers.triangular import triangular_hgo
 from hgo.plants.sp_linear import sp_linear_plant
@@ -159,6 +166,37 @@ def test_ensemble_members_keep_their_own_discrete_state() -> None:
         np.testing.assert_allclose(res["acc"][i], simulate(s, solver, no_noise(1)).acc,
                                    rtol=1e-12)
         assert res["acc"][i][0] == pytest.approx(s.d0()[0] ** 2 * (64 - 27) / 3, rel=1e-4)
+
+
+def test_ctrl_c_stops_a_chunked_ensemble_after_the_chunk_it_interrupted(monkeypatch) -> None:
+    """The ensemble runner integrates its members in chunks (one call each). When Ctrl-C
+    interrupts a chunk (its members come back with status 6), no later chunk runs: their
+    members are interrupted at t = 0, with NaN metrics and no samples (before, every
+    remaining chunk ran to its end after the Ctrl-C)."""
+    from hgo.running import ensemble_runner
+
+    systems = [_drift_system(c) for c in (1.0, -2.0, 3.0)]  # three chunks of one member
+    params, z0, d0 = stack_members(systems)
+    solver = SolverSettings(t_end=4.0, dt_out=0.01, method="dopri5", h_max=4.0)
+    real, calls = ensemble_runner.simulate_ensemble, []
+
+    def second_chunk_interrupted(*args, **kwargs):
+        out = real(*args, **kwargs)
+        calls.append(out)
+        if len(calls) == 2:
+            out["status"][:] = INTERRUPTED
+        return out
+
+    monkeypatch.setattr(ensemble_runner, "simulate_ensemble", second_chunk_interrupted)
+    out = ensemble_runner._simulate_chunks(solver, [no_noise(1)] * 3, params, z0, d0, systems,
+                                           record=True)
+    assert len(calls) == 2
+    assert out["status"].tolist() == [0, INTERRUPTED, INTERRUPTED]
+    np.testing.assert_array_equal(out["acc"][:2], np.vstack([c["acc"] for c in calls]))
+    assert np.isnan(out["acc"][2]).all() and out["t_stop"][2] == 0.0
+    never = out["trajectories"][2]
+    assert never.status == INTERRUPTED and never.t.shape == (0,)
+    assert never.z.shape == (0, systems[2].nz) and never.xh.shape == (0, systems[2].nxh)
 
 
 def _noisy_members(seed: int, n: int, t_end: float) -> tuple:

@@ -122,6 +122,41 @@ def test_split_ensemble_members_equal_split_single_runs():
         np.testing.assert_array_equal(out["trajectories"][i].z, single.z)
 
 
+def test_members_of_an_interrupted_split_ensemble_are_all_marked_interrupted(monkeypatch):
+    """A Ctrl-C during the first observer's part of a split ensemble, member 0 stopped
+    (status 6) and member 1 already done: the second part runs for no member, so both
+    members are interrupted (member 1 was marked ok with the second observer's metrics
+    NaN), in the statuses and in the recorded trajectories; the parts that ran keep their
+    metrics."""
+    import hgo.engine.simulate as sim
+
+    system, noise = _open_loop(), _noise()
+    z0 = np.stack([system.z0(), system.z0() + 0.1])
+    params = np.tile(system.params(), (2, 1))
+    full = simulate_ensemble(system, _solver(True), noise, params, z0, record=True)
+    real, parts_run = sim.simulate_ensemble, []
+
+    def member_0_interrupted(part_system, *args, **kwargs):
+        out = real(part_system, *args, **kwargs)
+        parts_run.append(part_system)
+        out["status"][0] = sim.INTERRUPTED
+        out["trajectories"][0] = dataclasses.replace(out["trajectories"][0],
+                                                     status=sim.INTERRUPTED)
+        return out
+
+    monkeypatch.setattr(sim, "simulate_ensemble", member_0_interrupted)  # (the parts only)
+    out = simulate_ensemble(system, _solver(True), noise, params, z0, record=True)
+    assert len(parts_run) == 1
+    assert out["status"].tolist() == [sim.INTERRUPTED] * 2
+    assert [tr.status for tr in out["trajectories"]] == [sim.INTERRUPTED] * 2
+    xa, xb = system.xh_slices[0]
+    n_xh, n_obs = system.nxh, len(system.observers)
+    ran = np.r_[xa:xb, n_xh, n_xh + n_obs]
+    np.testing.assert_array_equal(out["acc"][:, ran], full["acc"][:, ran])
+    xa, xb = system.xh_slices[1]
+    assert np.isnan(out["acc"][:, np.r_[xa:xb, n_xh + 1, n_xh + n_obs + 1]]).all()
+
+
 def test_split_is_refused_when_the_input_reads_an_estimate():
     system = System(dc_motor_plant(), _observers(), dc_motor_speed_controller("slow"))
     with pytest.raises(ConfigError, match="solver.split_observers"):

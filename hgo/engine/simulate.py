@@ -495,13 +495,17 @@ def _simulate_split(system: System, solver: SolverSettings, noise: Noise, P: np.
 def _merge(system: System, parts: list[_Part], runs: list[Trajectory]) -> Trajectory:
     """The parts' runs in the layout of ``system``: the plant, y, m and u of the first
     part; the run stops where its earliest part stopped, with the first failing part's
-    status; the columns of parts not run (after an interruption) are NaN."""
+    status; the columns of parts not run (after an interruption) are NaN, and the run is
+    interrupted even where the parts it ran all ended well (an ensemble member that had
+    finished the part during which another member was interrupted)."""
     n = min(len(run.t) for run in runs)
     first = runs[0]
+    complete = len(runs) == len(parts)
     out = Trajectory(first.t[:n], np.full((n, system.nz), np.nan),
                      np.full((n, system.nd), np.nan), first.y[:n], first.m[:n], first.u[:n],
                      np.full((n, system.nxh), np.nan),
-                     next((run.status for run in runs if run.status != 0), 0),
+                     next((run.status for run in runs if run.status != 0),
+                          0 if complete else INTERRUPTED),
                      min(run.t_stop for run in runs), np.full(system.n_acc(), np.nan))
     if all(run.dense is not None for run in runs):
         out.dense = DenseRun(system, [r for run in runs for r in run.dense.records],
@@ -604,12 +608,22 @@ def _ensemble_split(system: System, solver: SolverSettings, members: list[Noise]
     for part, out in zip(parts, outs, strict=False):
         acc[:, part.acc] = out["acc"]
         status = np.where(status != 0, status, out["status"])
+    if len(outs) < len(parts):  # the later parts ran for no member: none is complete
+        status = np.where(status != 0, status, INTERRUPTED)
     merged = {"acc": acc, "status": status,
               "t_stop": np.min([out["t_stop"] for out in outs], axis=0)}
     if record:
         merged["trajectories"] = [_merge(system, parts, [out["trajectories"][i] for out in outs])
                                   for i in range(len(params))]
     return merged
+
+
+def not_run(system: System) -> Trajectory:
+    """The run of a member that never started (an ensemble stopped by Ctrl-C before its
+    chunk): no samples, interrupted at t = 0, its metrics NaN."""
+    ny, nu = len(system.plant.output_names), len(system.plant.input_names)
+    t, *rec = _record_arrays(0, (1, system.nz, system.nd, ny, ny, nu, system.nxh))
+    return Trajectory(t[:, 0], *rec, INTERRUPTED, 0.0, np.full(system.n_acc(), np.nan))
 
 
 def no_noise(ny: int) -> Noise:

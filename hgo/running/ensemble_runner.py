@@ -40,7 +40,13 @@ from hgo.core.errors import ConfigError
 from hgo.core.memory import collection_paused
 from hgo.core.validate import check_ensemble_cost, check_values
 from hgo.engine.jit import run_seconds
-from hgo.engine.simulate import INTERRUPTED, rho_const, simulate, simulate_ensemble
+from hgo.engine.simulate import (
+    INTERRUPTED,
+    not_run,
+    rho_const,
+    simulate,
+    simulate_ensemble,
+)
 from hgo.engine.system import System
 from hgo.noise import NoiseModel
 from hgo.outputs.console import ensemble_table
@@ -99,20 +105,30 @@ def is_ensemble(cfg: DictConfig) -> bool:
 
 
 def _simulate_chunks(solver, noise, params, z0, d0, systems, record) -> dict:
-    """simulate_ensemble in chunks, logging progress (one compiled call per chunk)."""
+    """simulate_ensemble in chunks, logging progress (one compiled call per chunk). Ctrl-C
+    stops it after the chunk it interrupted: the members of the chunks not run are
+    interrupted at t = 0, their metrics NaN (:func:`~hgo.engine.simulate.not_run`)."""
     n = len(params)
     rho = np.array([rho_const(s, solver) for s in systems])
     edges = np.unique(np.linspace(0, n, min(CHUNKS, n) + 1).astype(int))
-    parts, start = [], time.perf_counter()
+    parts, start, done = [], time.perf_counter(), 0
     with bar(n, "ensemble", "members") as progress:
         for a, b in zip(edges[:-1], edges[1:], strict=True):
             parts.append(simulate_ensemble(systems[0], solver, noise[a:b], params[a:b],
                                            z0[a:b], d0[a:b], rho=rho[a:b], record=record))
             progress.update(b - a)
             log.info("ensemble: %d/%d members (%.2f s)", b, n, time.perf_counter() - start)
+            done = b
+            if (parts[-1]["status"] == INTERRUPTED).any():
+                break
     out = {k: np.concatenate([p[k] for p in parts]) for k in ("acc", "status", "t_stop")}
+    if done < n:
+        out["acc"] = np.vstack([out["acc"], np.full((n - done, out["acc"].shape[1]), np.nan)])
+        out["status"] = np.concatenate([out["status"], np.full(n - done, INTERRUPTED)])
+        out["t_stop"] = np.concatenate([out["t_stop"], np.zeros(n - done)])
     if record:
-        out["trajectories"] = [tr for p in parts for tr in p["trajectories"]]
+        out["trajectories"] = [tr for p in parts for tr in p["trajectories"]] + [
+            not_run(system) for system in systems[done:]]
     return out
 
 
