@@ -179,6 +179,59 @@ def test_ctrl_c_stops_a_long_compiled_integration_within_a_second(tmp_path):
     assert not list(run_dir.glob("*.partial"))
 
 
+REPRODUCE_STUCK = textwrap.dedent('''
+    import os, signal, sys, time
+    from pathlib import Path
+    import hgo.reproduce.run as rr
+
+    def claims_that_ignore_ctrl_c(paper, path):
+        # as a claim does: a Ctrl-C stops the kernel's current run, the task goes on
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        Path(sys.argv[1], str(os.getpid())).touch()
+        time.sleep(120)
+
+    rr.run_claims = claims_that_ignore_ctrl_c
+    rr.plan_jobs = lambda papers, root, fingerprint: []
+    try:
+        rr.reproduce(["sanfelice_praly", "moreno", "dimassi"], 2, Path(sys.argv[2]))
+    except KeyboardInterrupt:
+        sys.exit(130)
+''')
+
+
+def test_ctrl_c_ends_hgo_reproduce_and_its_workers_at_once(tmp_path):
+    """Ctrl-C (SIGINT to the process group, as a terminal sends it) while both workers run
+    a task that goes on after it: reproduce exits within seconds (it waited for every task
+    left before, here 120 s each), the busy workers are gone and the third task never
+    starts."""
+    import signal
+    import time
+
+    marks = tmp_path / "marks"
+    marks.mkdir()
+    env = {**os.environ, "HGO_CACHE_DIR": str(tmp_path / "kernels")}
+    proc = subprocess.Popen([sys.executable, "-c", REPRODUCE_STUCK, str(marks),
+                             str(tmp_path / "out")], env=env, start_new_session=True)
+    try:
+        deadline = time.monotonic() + 120
+        while len(list(marks.iterdir())) < 2 and time.monotonic() < deadline:
+            time.sleep(0.1)
+        workers = [int(p.name) for p in marks.iterdir()]
+        assert len(workers) == 2
+        t0 = time.monotonic()
+        os.killpg(proc.pid, signal.SIGINT)
+        assert proc.wait(timeout=60) == 130
+        assert time.monotonic() - t0 < 10.0
+    finally:  # (a failure leaves no process behind)
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    time.sleep(0.5)
+    for pid in workers:
+        with pytest.raises(ProcessLookupError):
+            os.kill(pid, 0)
+    assert len(list(marks.iterdir())) == 2
+
+
 # --- writes that do not finish -------------------------------------------------------
 
 
