@@ -117,9 +117,10 @@ def _simulate_chunks(solver, noise, params, z0, d0, systems, record) -> dict:
             parts.append(simulate_ensemble(systems[0], solver, noise[a:b], params[a:b],
                                            z0[a:b], d0[a:b], rho=rho[a:b], record=record))
             progress.update(b - a)
-            log.info("ensemble: %d/%d members (%.2f s)", b, n, time.perf_counter() - start)
-            done = b
-            if (parts[-1]["status"] == INTERRUPTED).any():
+            done, interrupted = b, bool((parts[-1]["status"] == INTERRUPTED).any())
+            log.info("ensemble: %d/%d members%s (%.2f s)", b, n,
+                     ", interrupted" if interrupted else "", time.perf_counter() - start)
+            if interrupted:
                 break
     out = {k: np.concatenate([p[k] for p in parts]) for k in ("acc", "status", "t_stop")}
     if done < n:
