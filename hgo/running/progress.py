@@ -58,8 +58,9 @@ class _CompileBar(Listener):
     compiles (a log line)."""
 
     def __init__(self, method: str, what: str = "") -> None:
-        self.method, self.what, self.depth, self.seconds = method, what, 0, 0.0
+        self.method, self.what, self.depth = method, what, 0
         self.part_seconds: dict[str, float] = {}  # history key -> seconds compiled
+        self._last = _history()[1]  # (read once: the seconds of each part last time)
         self.interrupted = False  # a compile ended by Ctrl-C (KeyboardInterrupt)
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
@@ -71,7 +72,7 @@ class _CompileBar(Listener):
             return
         kind, words = _part(event)
         self._key = f"{self.method} {kind}"
-        expected = _history()[1].get(self._key)
+        expected = self._last.get(self._key)
         if self._key not in self.part_seconds:
             self.part_seconds[self._key] = 0.0
             what = words or self.what or "a new kernel"
@@ -87,9 +88,7 @@ class _CompileBar(Listener):
         kind = (getattr(event, "_exc_details", None) or (None,))[0]  # (numba keeps it private)
         self.interrupted |= isinstance(kind, type) and issubclass(kind, KeyboardInterrupt)
         if self.depth == 0:
-            took = time.perf_counter() - self._t0
-            self.seconds += took
-            self.part_seconds[self._key] += took
+            self.part_seconds[self._key] += time.perf_counter() - self._t0
             self._stop.set()
             if self._thread is not None:
                 self._thread.join()
